@@ -1,0 +1,76 @@
+/**
+ * @file xpPose.h
+ * @brief Patient pose conventions of GEOMETRY.md: misalignment, table correction, CT to Room.
+ *
+ * A Pose acts on Room points about the isocentre: p' = R (p - iso) + iso + t, with
+ * R = Rz(yaw) * Ry(roll) * Rx(pitch); pitch about X (lateral), roll about Y (longitudinal),
+ * yaw about Z (vertical); translations in mm, angles in degrees.
+ */
+#ifndef xpPose_h
+#define xpPose_h
+
+#include "vtkXPGeometryModule.h"
+
+#include <Eigen/Geometry>
+#include <string>
+
+namespace xp
+{
+
+struct VTKXPGEOMETRY_EXPORT Pose
+{
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero(); ///< lateral, longitudinal, vertical (mm)
+  double pitch = 0.0;                                    ///< about X, degrees
+  double roll = 0.0;                                     ///< about Y, degrees
+  double yaw = 0.0;                                      ///< about Z, degrees
+
+  Eigen::Matrix3d Rotation() const;
+
+  /** The Room-to-Room transform p -> R (p - iso) + iso + t. */
+  Eigen::Isometry3d ToTransform(const Eigen::Vector3d& isocenter) const;
+
+  /** The pose of a rigid Room-to-Room transform about `isocenter` (angles in (-180, 180]). */
+  static Pose FromTransform(const Eigen::Isometry3d& transform, const Eigen::Vector3d& isocenter);
+
+  /** The inverse motion in the same terms: the table correction of a misalignment. */
+  Pose Inverse() const;
+
+  /** Parses "tx,ty,tz,pitch,roll,yaw"; throws xp::InputError naming `field`. */
+  static Pose Parse(const std::string& text, const std::string& field);
+
+  std::string ToString() const;
+};
+
+/** R = Rz(yaw) Ry(roll) Rx(pitch), angles in degrees. */
+VTKXPGEOMETRY_EXPORT Eigen::Matrix3d RotationFromAngles(double pitch, double roll, double yaw);
+
+/** DICOM Patient Position (0018,5100) values that xpose supports (couch angle 0). */
+enum class PatientPosition
+{
+  HFS,
+  HFP,
+  FFS,
+  FFP
+};
+
+/** "HFS" -> PatientPosition::HFS; throws xp::InputError naming `origin` for others. */
+VTKXPGEOMETRY_EXPORT PatientPosition ParsePatientPosition(const std::string& text, const std::string& origin);
+VTKXPGEOMETRY_EXPORT std::string ToString(PatientPosition position);
+
+/** Rotation taking CT (DICOM LPS) directions to Room directions; HFS: X = x, Y = z, Z = -y. */
+VTKXPGEOMETRY_EXPORT Eigen::Matrix3d PatientToRoomRotation(PatientPosition position);
+
+/**
+ * The planned CTToRoom transform: CT point `isoInCT` (LPS mm) lands on the Room isocentre, axes
+ * per the patient position.
+ */
+VTKXPGEOMETRY_EXPORT Eigen::Isometry3d PlannedCTToRoom(
+  PatientPosition position, const Eigen::Vector3d& isoInCT, const Eigen::Vector3d& roomIsocenter);
+
+/** CTToRoom of a misaligned patient: the misalignment applied after the planned set-up. */
+VTKXPGEOMETRY_EXPORT Eigen::Isometry3d MisalignedCTToRoom(const Eigen::Isometry3d& plannedCTToRoom,
+  const Pose& misalignment, const Eigen::Vector3d& roomIsocenter);
+
+} // namespace xp
+
+#endif

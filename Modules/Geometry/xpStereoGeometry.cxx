@@ -1,0 +1,281 @@
+#include "xpStereoGeometry.h"
+
+#include "xpError.h"
+
+#include <vtk_jsoncpp.h>
+
+#include <Eigen/Geometry>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace xp
+{
+
+namespace
+{
+
+constexpr double UnitTolerance = 1e-3;
+
+std::string Where(const std::string& origin, const std::string& field)
+{
+  return origin + ": " + field;
+}
+
+const Json::Value& Member(const Json::Value& object, const char* key, const std::string& origin,
+  const std::string& field)
+{
+  if (!object.isObject() || !object.isMember(key))
+  {
+    throw InputError(Where(origin, field), "missing");
+  }
+  return object[key];
+}
+
+double Number(const Json::Value& value, const std::string& origin, const std::string& field)
+{
+  if (!value.isNumeric())
+  {
+    throw InputError(Where(origin, field), "not a number");
+  }
+  return value.asDouble();
+}
+
+template <int N>
+Eigen::Matrix<double, N, 1> Vector(
+  const Json::Value& value, const std::string& origin, const std::string& field)
+{
+  if (!value.isArray() || value.size() != N)
+  {
+    throw InputError(Where(origin, field), "expected an array of " + std::to_string(N) + " numbers");
+  }
+  Eigen::Matrix<double, N, 1> v;
+  for (Json::ArrayIndex i = 0; i < N; ++i)
+  {
+    v[i] = Number(value[i], origin, field + "[" + std::to_string(i) + "]");
+  }
+  return v;
+}
+
+XRayView ParseView(const Json::Value& imager, const std::string& origin, const std::string& field)
+{
+  XRayView view;
+  const Json::Value& name = Member(imager, "name", origin, field + ".name");
+  if (!name.isString() || name.asString().empty())
+  {
+    throw InputError(Where(origin, field + ".name"), "expected a non-empty string");
+  }
+  view.name = name.asString();
+  view.source = Vector<3>(Member(imager, "source", origin, field + ".source"), origin, field + ".source");
+  const std::string det = field + ".detector";
+  const Json::Value& detector = Member(imager, "detector", origin, det);
+  view.detectorCenter = Vector<3>(Member(detector, "center", origin, det + ".center"), origin, det + ".center");
+  view.rowDirection = Vector<3>(
+    Member(detector, "row_direction", origin, det + ".row_direction"), origin, det + ".row_direction");
+  view.columnDirection = Vector<3>(Member(detector, "column_direction", origin, det + ".column_direction"),
+    origin, det + ".column_direction");
+  view.pixelSpacing = Vector<2>(
+    Member(detector, "pixel_spacing", origin, det + ".pixel_spacing"), origin, det + ".pixel_spacing");
+  const Eigen::Vector2d size = Vector<2>(Member(detector, "size", origin, det + ".size"), origin, det + ".size");
+  if (size[0] != std::floor(size[0]) || size[1] != std::floor(size[1]))
+  {
+    throw InputError(Where(origin, det + ".size"), "expected whole numbers of pixels");
+  }
+  view.size = size.cast<int>();
+  return view;
+}
+
+Json::Value ToJson(const Eigen::VectorXd& v)
+{
+  Json::Value array(Json::arrayValue);
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+  {
+    array.append(v[i]);
+  }
+  return array;
+}
+
+void ValidateView(const XRayView& view, const Eigen::Vector3d& isocenter, const std::string& origin,
+  const std::string& field)
+{
+  const std::string det = field + ".detector";
+  for (const auto& [dir, key] : { std::make_pair(view.rowDirection, ".row_direction"),
+         std::make_pair(view.columnDirection, ".column_direction") })
+  {
+    if (std::abs(dir.norm() - 1.0) > UnitTolerance)
+    {
+      throw InputError(Where(origin, det + key),
+        "not a unit vector (length " + std::to_string(dir.norm()) + ")");
+    }
+  }
+  if (std::abs(view.rowDirection.dot(view.columnDirection)) > UnitTolerance)
+  {
+    throw InputError(Where(origin, det + ".column_direction"), "not orthogonal to row_direction");
+  }
+  if (!(view.pixelSpacing.minCoeff() > 0.0))
+  {
+    throw InputError(Where(origin, det + ".pixel_spacing"), "must be positive");
+  }
+  if (view.size.minCoeff() < 1 || view.size.maxCoeff() > 16384)
+  {
+    throw InputError(Where(origin, det + ".size"), "must be between 1 and 16384 pixels");
+  }
+  if (view.SourceToPanelDistance() < 1.0)
+  {
+    throw InputError(Where(origin, field + ".source"), "lies on the panel plane");
+  }
+  // The central ray (source through the isocentre) must hit the panel within its extent.
+  Eigen::Vector2d pixel;
+  try
+  {
+    pixel = view.Project(isocenter);
+  }
+  catch (const Error&)
+  {
+    throw InputError(Where(origin, field + ".source"), "the isocentre is not between source and panel");
+  }
+  if (pixel[0] < -0.5 || pixel[0] > view.size[0] - 0.5 || pixel[1] < -0.5 || pixel[1] > view.size[1] - 0.5)
+  {
+    throw InputError(Where(origin, det + ".center"), "the ray from the source through the isocentre misses the panel");
+  }
+}
+
+} // namespace
+
+const XRayView* StereoGeometry::FindView(const std::string& viewName) const
+{
+  for (const XRayView& view : this->views)
+  {
+    if (view.name == viewName)
+    {
+      return &view;
+    }
+  }
+  return nullptr;
+}
+
+void ValidateGeometry(const StereoGeometry& geometry, const std::string& origin)
+{
+  if (geometry.views.empty())
+  {
+    throw InputError(Where(origin, "imagers"), "no imager defined");
+  }
+  std::set<std::string> names;
+  for (size_t i = 0; i < geometry.views.size(); ++i)
+  {
+    const std::string field = "imagers[" + std::to_string(i) + "]";
+    if (!names.insert(geometry.views[i].name).second)
+    {
+      throw InputError(Where(origin, field + ".name"), "duplicate imager name '" + geometry.views[i].name + "'");
+    }
+    ValidateView(geometry.views[i], geometry.isocenter, origin, field);
+  }
+}
+
+void ValidateStereoGeometry(const StereoGeometry& geometry, const std::string& origin)
+{
+  ValidateGeometry(geometry, origin);
+  if (geometry.views.size() < 2)
+  {
+    throw InputError(Where(origin, "imagers"), "a stereo registration needs at least two imagers, found " +
+        std::to_string(geometry.views.size()));
+  }
+}
+
+StereoGeometry ParseStereoGeometry(const std::string& jsonText, const std::string& origin)
+{
+  Json::CharReaderBuilder builder;
+  builder["collectComments"] = false;
+  Json::Value root;
+  std::string errors;
+  std::istringstream stream(jsonText);
+  if (!Json::parseFromStream(builder, stream, &root, &errors))
+  {
+    throw InputError(origin, "not valid JSON: " + errors);
+  }
+  if (!root.isObject())
+  {
+    throw InputError(origin, "expected a JSON object at the top level");
+  }
+  StereoGeometry geometry;
+  if (root.isMember("name"))
+  {
+    geometry.name = root["name"].asString();
+  }
+  if (root.isMember("isocenter"))
+  {
+    geometry.isocenter = Vector<3>(root["isocenter"], origin, "isocenter");
+  }
+  const Json::Value& imagers = Member(root, "imagers", origin, "imagers");
+  if (!imagers.isArray())
+  {
+    throw InputError(Where(origin, "imagers"), "expected an array");
+  }
+  for (Json::ArrayIndex i = 0; i < imagers.size(); ++i)
+  {
+    geometry.views.push_back(ParseView(imagers[i], origin, "imagers[" + std::to_string(i) + "]"));
+  }
+  ValidateGeometry(geometry, origin);
+  // Files give directions to a few digits; make them exactly orthonormal so that projecting a
+  // point and tracing a pixel's ray agree to rounding error.
+  for (XRayView& view : geometry.views)
+  {
+    view.rowDirection.normalize();
+    view.columnDirection = (view.columnDirection - view.columnDirection.dot(view.rowDirection) * view.rowDirection).normalized();
+  }
+  return geometry;
+}
+
+StereoGeometry ReadStereoGeometry(const std::string& path)
+{
+  std::ifstream file(path);
+  if (!file)
+  {
+    throw InputError(path, "cannot open the geometry file");
+  }
+  std::stringstream text;
+  text << file.rdbuf();
+  return ParseStereoGeometry(text.str(), path);
+}
+
+std::string FormatStereoGeometry(const StereoGeometry& geometry)
+{
+  Json::Value root(Json::objectValue);
+  root["name"] = geometry.name;
+  root["isocenter"] = ToJson(geometry.isocenter);
+  Json::Value imagers(Json::arrayValue);
+  for (const XRayView& view : geometry.views)
+  {
+    Json::Value detector(Json::objectValue);
+    detector["center"] = ToJson(view.detectorCenter);
+    detector["row_direction"] = ToJson(view.rowDirection);
+    detector["column_direction"] = ToJson(view.columnDirection);
+    detector["pixel_spacing"] = ToJson(view.pixelSpacing);
+    Json::Value size(Json::arrayValue);
+    size.append(view.size[0]);
+    size.append(view.size[1]);
+    detector["size"] = size;
+    Json::Value imager(Json::objectValue);
+    imager["name"] = view.name;
+    imager["source"] = ToJson(view.source);
+    imager["detector"] = detector;
+    imagers.append(imager);
+  }
+  root["imagers"] = imagers;
+  Json::StreamWriterBuilder writer;
+  writer["indentation"] = "  ";
+  writer["precision"] = 17;
+  return Json::writeString(writer, root) + "\n";
+}
+
+void WriteStereoGeometry(const StereoGeometry& geometry, const std::string& path)
+{
+  std::ofstream file(path);
+  file << FormatStereoGeometry(geometry);
+  if (!file)
+  {
+    throw Error(path, "cannot write the geometry file");
+  }
+}
+
+} // namespace xp
