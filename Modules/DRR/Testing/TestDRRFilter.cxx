@@ -1,0 +1,173 @@
+// vtkXPDRRFilter in the conventions of GEOMETRY.md: a dense marker in a CT lands on the pixel
+// that the geometry predicts, and a patient misalignment moves it the way the convention says.
+#include "vtkXPDRRFilter.h"
+
+#include "xpPose.h"
+
+#include <gtest/gtest.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkShortArray.h>
+#include <vtkSmartPointer.h>
+
+namespace
+{
+
+const double S = 0.707107, D = 707.107, H = 353.553;
+
+xp::XRayView ViewA()
+{
+  xp::XRayView a;
+  a.name = "A";
+  a.source = { -D, 0, -D };
+  a.detectorCenter = { H, 0, H };
+  a.rowDirection = { -S, 0, S };
+  a.columnDirection = { 0, -1, 0 };
+  a.pixelSpacing = { 0.390625, 0.390625 };
+  a.size = { 1024, 768 };
+  return a.Resampled(256, 192);
+}
+
+/**
+ * A 60x50x40 CT of air with 2 mm voxels, an axial HFS orientation and a 4 mm bone cube centred
+ * at CT voxel (40, 12, 30). Origin and a non-zero extent start exercise the index mapping.
+ */
+vtkSmartPointer<vtkImageData> MarkerCT(Eigen::Vector3d& markerLPS)
+{
+  auto ct = vtkSmartPointer<vtkImageData>::New();
+  ct->SetExtent(0, 59, 0, 49, 0, 39);
+  ct->SetSpacing(2.0, 2.0, 2.0);
+  ct->SetOrigin(-50.0, 20.0, 100.0);
+  vtkNew<vtkShortArray> hu;
+  hu->SetNumberOfValues(60 * 50 * 40);
+  hu->FillValue(-1000);
+  for (int k = 29; k <= 30; ++k)
+    for (int j = 11; j <= 12; ++j)
+      for (int i = 39; i <= 40; ++i)
+        hu->SetValue((k * 50 + j) * 60 + i, 3000);
+  ct->GetPointData()->SetScalars(hu);
+  markerLPS = Eigen::Vector3d(-50.0 + 2 * 39.5, 20.0 + 2 * 11.5, 100.0 + 2 * 29.5);
+  return ct;
+}
+
+/** Centroid (detector col, row) of the attenuation in a DRR line-integral output. */
+Eigen::Vector2d Centroid(vtkImageData* lineIntegral)
+{
+  int dims[3];
+  lineIntegral->GetDimensions(dims);
+  const float* v = static_cast<const float*>(lineIntegral->GetScalarPointer());
+  double sum = 0, sc = 0, sr = 0;
+  for (int j = 0; j < dims[1]; ++j)
+    for (int i = 0; i < dims[0]; ++i)
+    {
+      const double w = v[j * dims[0] + i];
+      sum += w;
+      sc += w * i;
+      sr += w * (dims[1] - 1 - j); // VTK rows run up: detector row = rows-1-j
+    }
+  EXPECT_GT(sum, 0.0);
+  return { sc / sum, sr / sum };
+}
+
+} // namespace
+
+TEST(vtkXPDRRFilter, MarkerLandsOnThePredictedPixel)
+{
+  Eigen::Vector3d marker;
+  vtkSmartPointer<vtkImageData> ct = MarkerCT(marker);
+  vtkNew<vtkXPDRRFilter> drr;
+  drr->SetInputData(ct);
+  drr->SetView(ViewA());
+  drr->Update();
+  ASSERT_EQ(drr->GetNumberOfTracedRays(), 256 * 192);
+
+  double center[3];
+  const double mid[3] = { 29.5, 24.5, 19.5 };
+  ct->TransformContinuousIndexToPhysicalPoint(mid, center);
+  const Eigen::Vector3d room =
+    xp::PlannedCTToRoom(xp::PatientPosition::HFS, Eigen::Vector3d(center), Eigen::Vector3d::Zero()) * marker;
+  // HFS: the marker is left (+X), anterior (+Z) and superior (+Y) of the CT centre.
+  EXPECT_GT(room[0], 0);
+  EXPECT_GT(room[1], 0);
+  EXPECT_GT(room[2], 0);
+  const Eigen::Vector2d expected = ViewA().Project(room);
+  const Eigen::Vector2d found = Centroid(drr->GetOutput(1));
+  EXPECT_NEAR(found[0], expected[0], 0.1);
+  EXPECT_NEAR(found[1], expected[1], 0.1);
+
+  // The same pixel holds the darkest 12-bit value (bone is dark in transmission).
+  vtkImageData* twelve = drr->GetOutput(0);
+  const uint16_t* t = static_cast<const uint16_t*>(twelve->GetScalarPointer());
+  const int vtkRow = 191 - static_cast<int>(std::lround(expected[1]));
+  const int col = static_cast<int>(std::lround(expected[0]));
+  EXPECT_LT(t[vtkRow * 256 + col], 4095);
+  EXPECT_EQ(t[0], 4095) << "air everywhere else";
+  // Output placement: VTK pixel (col, vtkRow) sits at the room position of detector pixel (col, row).
+  double p[3];
+  const double index[3] = { double(col), double(vtkRow), 0.0 };
+  twelve->TransformContinuousIndexToPhysicalPoint(index, p);
+  EXPECT_NEAR((Eigen::Vector3d(p) - ViewA().PixelCenter(col, 191 - vtkRow)).norm(), 0.0, 1e-6);
+}
+
+TEST(vtkXPDRRFilter, MisalignmentMovesTheMarkerAsTheConventionSays)
+{
+  Eigen::Vector3d marker;
+  vtkSmartPointer<vtkImageData> ct = MarkerCT(marker);
+  vtkNew<vtkXPDRRFilter> drr;
+  drr->SetInputData(ct);
+  drr->SetView(ViewA());
+  drr->Update();
+  const Eigen::Vector2d before = Centroid(drr->GetOutput(1));
+
+  double center[3];
+  const double mid[3] = { 29.5, 24.5, 19.5 };
+  ct->TransformContinuousIndexToPhysicalPoint(mid, center);
+  const Eigen::Vector3d room =
+    xp::PlannedCTToRoom(xp::PatientPosition::HFS, Eigen::Vector3d(center), Eigen::Vector3d::Zero()) * marker;
+  for (const char* text : { "5,0,0,0,0,0", "0,-7,3,0,0,0", "0,0,0,0,0,8", "2,1,-1,4,-3,2" })
+  {
+    const xp::Pose pose = xp::Pose::Parse(text, "pose");
+    drr->SetMisalignment(pose);
+    drr->Update();
+    const Eigen::Vector2d moved = Centroid(drr->GetOutput(1));
+    const Eigen::Vector2d expected = ViewA().Project(pose.ToTransform(Eigen::Vector3d::Zero()) * room);
+    EXPECT_NEAR(moved[0], expected[0], 0.1) << text;
+    EXPECT_NEAR(moved[1], expected[1], 0.1) << text;
+    EXPECT_GT((moved - before).norm(), 0.5) << text;
+  }
+}
+
+TEST(vtkXPDRRFilter, MaskPortSkipsRaysAndFlagsThem)
+{
+  Eigen::Vector3d marker;
+  vtkSmartPointer<vtkImageData> ct = MarkerCT(marker);
+  vtkNew<vtkImageData> mask;
+  mask->SetDimensions(256, 192, 1);
+  mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  uint8_t* m = static_cast<uint8_t*>(mask->GetScalarPointer());
+  for (int i = 0; i < 256 * 192; ++i)
+    m[i] = (i % 256) < 64 ? 1 : 0; // a quarter of the columns
+  vtkNew<vtkXPDRRFilter> drr;
+  drr->SetInputData(0, ct);
+  drr->SetInputData(1, mask);
+  drr->SetView(ViewA());
+  drr->Update();
+  EXPECT_EQ(drr->GetNumberOfTracedRays(), 64 * 192);
+  const uint8_t* valid = static_cast<const uint8_t*>(drr->GetOutput(2)->GetScalarPointer());
+  const uint16_t* t = static_cast<const uint16_t*>(drr->GetOutput(0)->GetScalarPointer());
+  EXPECT_EQ(valid[10], 255);
+  EXPECT_EQ(valid[100], 0);
+  EXPECT_EQ(t[100], 0);
+  EXPECT_EQ(t[10], 4095);
+
+  vtkNew<vtkImageData> wrongSize;
+  wrongSize->SetDimensions(100, 100, 1);
+  wrongSize->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  drr->SetInputData(1, wrongSize);
+  drr->GlobalWarningDisplayOff();
+  drr->Update();
+  drr->GlobalWarningDisplayOn();
+  EXPECT_EQ(drr->GetOutput(0)->GetNumberOfPoints(), 0) << "a mask of the wrong size is refused";
+}

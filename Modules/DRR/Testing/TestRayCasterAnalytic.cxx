@@ -1,0 +1,239 @@
+// The ray caster against analytic line integrals (RTK's approach): a box and a sphere of
+// constant mu, chord lengths known in closed form.
+#include "xpAttenuationVolume.h"
+#include "xpRayCaster.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+namespace
+{
+
+constexpr double MuWater = 0.02;
+
+/** A cubic volume of n^3 voxels of 1 mm centred on the origin, HU from a function of position. */
+xp::AttenuationVolume MakeVolume(int n, const std::function<double(const Eigen::Vector3d&)>& fractionInside)
+{
+  std::vector<float> hu(static_cast<size_t>(n) * n * n);
+  const double c = 0.5 * (n - 1);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        hu[(static_cast<size_t>(k) * n + j) * n + i] =
+          static_cast<float>(-1000.0 + 1000.0 * fractionInside(Eigen::Vector3d(i - c, j - c, k - c)));
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  indexToCT.translation() = Eigen::Vector3d::Constant(-c);
+  return xp::AttenuationVolume(hu.data(), Eigen::Vector3i(n, n, n), indexToCT, MuWater);
+}
+
+/** Fraction of a 1 mm voxel at `p` inside a sphere (partial volume, 8^3 samples at the surface). */
+double SphereFraction(const Eigen::Vector3d& p, double radius)
+{
+  const double distance = p.norm();
+  if (std::abs(distance - radius) > 0.9)
+    return distance < radius ? 1.0 : 0.0;
+  int inside = 0;
+  for (int a = 0; a < 8; ++a)
+    for (int b = 0; b < 8; ++b)
+      for (int c = 0; c < 8; ++c)
+        inside += (p + Eigen::Vector3d(a - 3.5, b - 3.5, c - 3.5) / 8.0).norm() <= radius;
+  return inside / 512.0;
+}
+
+/** A 64x64-pixel panel at z = +400 looking up from a source at z = -600 (CT frame = room). */
+xp::DetectorGrid Panel(double pitch)
+{
+  xp::DetectorGrid grid;
+  grid.columns = grid.rows = 64;
+  grid.origin = Eigen::Vector3d(-31.5 * pitch, -31.5 * pitch, 400.0);
+  grid.columnStep = Eigen::Vector3d(pitch, 0, 0);
+  grid.rowStep = Eigen::Vector3d(0, pitch, 0);
+  return grid;
+}
+
+const Eigen::Vector3d Source(7.0, -5.0, -600.0); // off-axis so that rays are oblique
+
+/**
+ * Chord of a ray through the box [-h, h]^3. `clean` is false when the ray crosses a face within
+ * the band where trilinear interpolation ramps the edge (half a voxel either side) and that band
+ * reaches another face along the ray: there the interpolated box has rounded edges, not the
+ * box's sharp ones, and the analytic chord is not the right reference.
+ */
+double BoxChord(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double h, bool& clean)
+{
+  const Eigen::Vector3d d = (to - from).normalized();
+  double t0 = -1e9, t1 = 1e9;
+  for (int a = 0; a < 3; ++a)
+  {
+    double ta = (-h - from[a]) / d[a], tb = (h - from[a]) / d[a];
+    if (ta > tb)
+      std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  clean = t1 > t0;
+  if (!clean)
+    return 0;
+  for (double t : { t0, t1 })
+  {
+    const Eigen::Vector3d p = from + t * d;
+    int face = 0;
+    (Eigen::Vector3d::Constant(h) - p.cwiseAbs()).minCoeff(&face);
+    const double band = 0.6 / std::abs(d[face]);
+    for (double dt : { -band, band })
+    {
+      const Eigen::Vector3d q = from + (t + dt) * d;
+      for (int b = 0; b < 3; ++b)
+        clean = clean && (b == face || std::abs(q[b]) < h - 0.6);
+    }
+  }
+  return t1 - t0;
+}
+
+void CheckBox(xp::RayCastMethod method, double stepSize, double tolerance)
+{
+  // Voxels 16..47 of 64 are inside: the box spans [-16, 16] mm exactly.
+  const xp::AttenuationVolume volume =
+    MakeVolume(64, [](const Eigen::Vector3d& p) { return p.cwiseAbs().maxCoeff() < 16.0 ? 1.0 : 0.0; });
+  const xp::DetectorGrid grid = Panel(1.2);
+  std::vector<float> integrals(grid.columns * grid.rows);
+  xp::RayCastSettings settings;
+  settings.method = method;
+  settings.stepSize = stepSize;
+  xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, grid, nullptr, integrals.data(), settings);
+  int checked = 0;
+  double worst = 0;
+  for (int r = 0; r < grid.rows; ++r)
+  {
+    for (int c = 0; c < grid.columns; ++c)
+    {
+      bool clean;
+      const double chord = BoxChord(Source, grid.origin + c * grid.columnStep + r * grid.rowStep, 16.0, clean);
+      const double value = integrals[r * grid.columns + c];
+      if (chord == 0.0)
+      {
+        EXPECT_NEAR(value, 0.0, MuWater * 1.5) << "pixel " << c << "," << r;
+        continue;
+      }
+      if (!clean)
+      {
+        continue;
+      }
+      ++checked;
+      worst = std::max(worst, std::abs(value / (MuWater * chord) - 1.0));
+    }
+  }
+  EXPECT_GT(checked, 400);
+  EXPECT_LT(worst, tolerance) << "worst relative error over " << checked << " rays";
+}
+
+} // namespace
+
+TEST(RayCasterAnalytic, BoxTrilinearDefaultStep)
+{
+  CheckBox(xp::RayCastMethod::Trilinear, 0.0, 1e-3);
+}
+
+TEST(RayCasterAnalytic, BoxTrilinearFineStep)
+{
+  CheckBox(xp::RayCastMethod::Trilinear, 0.25, 1e-3);
+}
+
+TEST(RayCasterAnalytic, BoxSiddonIsExact)
+{
+  CheckBox(xp::RayCastMethod::Siddon, 0.0, 1e-5);
+}
+
+TEST(RayCasterAnalytic, SphereChordLength)
+{
+  const double radius = 30.0;
+  const xp::AttenuationVolume volume = MakeVolume(72, [&](const Eigen::Vector3d& p) { return SphereFraction(p, radius); });
+  const xp::DetectorGrid grid = Panel(1.5);
+  for (xp::RayCastMethod method : { xp::RayCastMethod::Trilinear, xp::RayCastMethod::Siddon })
+  {
+    std::vector<float> integrals(grid.columns * grid.rows);
+    xp::RayCastSettings settings;
+    settings.method = method;
+    xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, grid, nullptr, integrals.data(), settings);
+    double worst = 0;
+    int checked = 0;
+    for (int r = 0; r < grid.rows; ++r)
+    {
+      for (int c = 0; c < grid.columns; ++c)
+      {
+        const Eigen::Vector3d d = (grid.origin + c * grid.columnStep + r * grid.rowStep - Source).normalized();
+        const double distance = (-Source - (-Source).dot(d) * d).norm(); // centre to ray
+        if (distance > 0.5 * radius)
+          continue;
+        const double chord = 2.0 * std::sqrt(radius * radius - distance * distance);
+        worst = std::max(worst, std::abs(integrals[r * grid.columns + c] / (MuWater * chord) - 1.0));
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 100);
+    // Siddon integrates nearest-neighbour voxels exactly, so partial-volume voxels at the
+    // surface bias it (measured 0.9 %); trilinear follows the smooth surface to < 0.1 %.
+    EXPECT_LT(worst, method == xp::RayCastMethod::Siddon ? 1e-2 : 1e-3)
+      << (method == xp::RayCastMethod::Siddon ? "Siddon" : "Trilinear");
+  }
+}
+
+TEST(RayCasterAnalytic, GrazingAndMissingRaysEndQuicklyWithZero)
+{
+  // All water, spanning [-16, 16] mm. Rays nearly parallel to the slices (z = const) that miss
+  // the volume, run along its boundary face, or cross it: the case that hangs a peer's tracer.
+  const xp::AttenuationVolume volume = MakeVolume(32, [](const Eigen::Vector3d&) { return 1.0; });
+  const auto trace = [&](double y, double z0, double z1, xp::RayCastMethod method)
+  {
+    xp::DetectorGrid grid;
+    grid.columns = grid.rows = 1;
+    grid.origin = Eigen::Vector3d(2000.0, y, z1);
+    xp::RayCastSettings settings;
+    settings.method = method;
+    float integral = -1.0f;
+    xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Eigen::Vector3d(-2000.0, y, z0), grid, nullptr,
+      &integral, settings);
+    return integral;
+  };
+  const auto start = std::chrono::steady_clock::now();
+  for (xp::RayCastMethod method : { xp::RayCastMethod::Trilinear, xp::RayCastMethod::Siddon })
+  {
+    EXPECT_EQ(trace(40.0, 1e-9, 0.0, method), 0.0f) << "misses beside the volume";
+    EXPECT_EQ(trace(0.0, 16.5 + 1e-12, 16.5, method), 0.0f) << "misses just above the top slice";
+    EXPECT_NEAR(trace(-9.0, 1e-9, -1e-9, method), MuWater * 32.0, MuWater * 0.01) << "crosses 32 mm of water";
+    const float face = trace(16.0, 0.0, 1e-12, method);
+    EXPECT_TRUE(std::isfinite(face) && face >= 0.0f && face <= MuWater * 32.01) << "runs along the boundary face";
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
+}
+
+TEST(RayCasterAnalytic, MaskedPixelsAreNotTracedAndValidOnesUnchanged)
+{
+  const xp::AttenuationVolume volume =
+    MakeVolume(48, [](const Eigen::Vector3d& p) { return p.norm() < 20 ? 1.0 : 0.0; });
+  const xp::DetectorGrid grid = Panel(1.0);
+  const size_t n = grid.columns * grid.rows;
+  std::vector<float> full(n), masked(n, -1.0f);
+  std::vector<uint8_t> mask(n);
+  for (size_t i = 0; i < n; ++i)
+    mask[i] = (i % 7 == 0 || (i / 64) % 3 == 1) ? 1 : 0;
+  const long long all = xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, grid, nullptr, full.data());
+  const long long some =
+    xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, grid, mask.data(), masked.data());
+  EXPECT_EQ(all, static_cast<long long>(n));
+  EXPECT_EQ(some, std::count(mask.begin(), mask.end(), 1));
+  for (size_t i = 0; i < n; ++i)
+  {
+    EXPECT_EQ(masked[i], mask[i] ? full[i] : 0.0f) << i;
+  }
+  std::vector<uint16_t> twelveBit(n);
+  xp::LineIntegralsTo12Bit(masked.data(), mask.data(), static_cast<long long>(n), twelveBit.data());
+  const size_t corner = 64 * 1; // row 1 is valid, column 0: a ray that misses -> transmission 1
+  ASSERT_TRUE(mask[corner]);
+  EXPECT_EQ(twelveBit[corner], 4095);
+  EXPECT_EQ(twelveBit[2], 0) << "masked pixel";
+}

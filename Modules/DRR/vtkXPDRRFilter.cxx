@@ -1,0 +1,245 @@
+#include "vtkXPDRRFilter.h"
+
+#include "xpAttenuationVolume.h"
+#include "xpError.h"
+
+#include <vtkDataArray.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkMatrix3x3.h>
+#include <vtkMatrix4x4.h>
+#include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <vector>
+
+vtkStandardNewMacro(vtkXPDRRFilter);
+
+vtkXPDRRFilter::vtkXPDRRFilter()
+{
+  this->SetNumberOfInputPorts(2);
+  this->SetNumberOfOutputPorts(3);
+}
+
+vtkXPDRRFilter::~vtkXPDRRFilter() = default;
+
+void vtkXPDRRFilter::SetView(const xp::XRayView& view)
+{
+  this->View = view;
+  this->Modified();
+}
+
+void vtkXPDRRFilter::SetPatientPosition(xp::PatientPosition position)
+{
+  if (position != this->Position)
+  {
+    this->Position = position;
+    this->Modified();
+  }
+}
+
+void vtkXPDRRFilter::SetMisalignment(const xp::Pose& pose)
+{
+  this->Misalignment = pose;
+  this->Modified();
+}
+
+xp::XRayView vtkXPDRRFilter::GetOutputView() const
+{
+  if (this->OutputSize[0] > 0 && this->OutputSize[1] > 0)
+  {
+    return this->View.Resampled(this->OutputSize[0], this->OutputSize[1]);
+  }
+  return this->View;
+}
+
+int vtkXPDRRFilter::FillInputPortInformation(int port, vtkInformation* info)
+{
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
+  if (port == 1)
+  {
+    info->Set(vtkAlgorithm::INPUT_IS_OPTIONAL(), 1);
+  }
+  return 1;
+}
+
+int vtkXPDRRFilter::FillOutputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkImageData");
+  return 1;
+}
+
+int vtkXPDRRFilter::RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+{
+  const xp::XRayView view = this->GetOutputView();
+  if (view.Columns() < 1 || view.Rows() < 1)
+  {
+    vtkErrorMacro(<< "no view set");
+    return 0;
+  }
+  // Rows bottom-up: VTK row 0 is detector row rows-1, so the j axis runs against column_direction.
+  const Eigen::Vector3d origin = view.PixelCenter(0, view.Rows() - 1);
+  const Eigen::Vector3d jAxis = -view.columnDirection;
+  const Eigen::Vector3d kAxis = view.rowDirection.cross(jAxis);
+  const double direction[9] = { view.rowDirection[0], jAxis[0], kAxis[0], view.rowDirection[1], jAxis[1], kAxis[1],
+    view.rowDirection[2], jAxis[2], kAxis[2] };
+  const double spacing[3] = { view.pixelSpacing[0], view.pixelSpacing[1], 1.0 };
+  const int extent[6] = { 0, view.Columns() - 1, 0, view.Rows() - 1, 0, 0 };
+  const int types[3] = { VTK_UNSIGNED_SHORT, VTK_FLOAT, VTK_UNSIGNED_CHAR };
+  for (int port = 0; port < 3; ++port)
+  {
+    vtkInformation* info = outputVector->GetInformationObject(port);
+    info->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+    info->Set(vtkDataObject::SPACING(), spacing, 3);
+    info->Set(vtkDataObject::ORIGIN(), origin.data(), 3);
+    info->Set(vtkDataObject::DIRECTION(), direction, 9);
+    vtkDataObject::SetPointDataActiveScalarInfo(info, types[port], 1);
+  }
+  return 1;
+}
+
+int vtkXPDRRFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
+{
+  // Every ray may cross any part of the CT, and the mask covers the whole panel.
+  for (int port = 0; port < 2; ++port)
+  {
+    if (vtkInformation* info = inputVector[port]->GetInformationObject(0))
+    {
+      int whole[6];
+      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+      info->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+    }
+  }
+  return 1;
+}
+
+const xp::AttenuationVolume& vtkXPDRRFilter::Attenuation(vtkImageData* ct)
+{
+  if (!this->Volume || ct->GetMTime() != this->VolumeTime || this->MuWater != this->VolumeMuWater)
+  {
+    vtkDataArray* scalars = ct->GetPointData()->GetScalars();
+    if (!scalars || scalars->GetNumberOfComponents() != 1)
+    {
+      throw xp::InputError("CT input", "needs one scalar component in HU");
+    }
+    int dims[3];
+    ct->GetDimensions(dims);
+    std::vector<float> hu;
+    const float* values = nullptr;
+    if (scalars->GetDataType() == VTK_FLOAT)
+    {
+      values = static_cast<const float*>(scalars->GetVoidPointer(0));
+    }
+    else
+    {
+      hu.resize(static_cast<size_t>(scalars->GetNumberOfTuples()));
+      for (vtkIdType i = 0; i < scalars->GetNumberOfTuples(); ++i)
+      {
+        hu[i] = static_cast<float>(scalars->GetTuple1(i));
+      }
+      values = hu.data();
+    }
+    Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+    vtkMatrix4x4* m = ct->GetIndexToPhysicalMatrix();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        indexToCT.matrix()(r, c) = m->GetElement(r, c);
+    // The CT's extent may not start at 0: fold the extent start into the index mapping.
+    int extent[6];
+    ct->GetExtent(extent);
+    indexToCT = indexToCT * Eigen::Translation3d(extent[0], extent[2], extent[4]);
+    this->Volume = std::make_unique<xp::AttenuationVolume>(values, Eigen::Vector3i(dims[0], dims[1], dims[2]), indexToCT, this->MuWater);
+    this->VolumeTime = ct->GetMTime();
+    this->VolumeMuWater = this->MuWater;
+  }
+  return *this->Volume;
+}
+
+int vtkXPDRRFilter::RequestData(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkImageData* ct = vtkImageData::GetData(inputVector[0]);
+  vtkImageData* maskImage = this->GetNumberOfInputConnections(1) > 0 ? vtkImageData::GetData(inputVector[1]) : nullptr;
+  const xp::XRayView view = this->GetOutputView();
+  const long long count = static_cast<long long>(view.Columns()) * view.Rows();
+  try
+  {
+    if (!ct || ct->GetNumberOfPoints() == 0)
+    {
+      throw xp::InputError("CT input", "empty");
+    }
+    const uint8_t* mask = nullptr;
+    if (maskImage)
+    {
+      int dims[3];
+      maskImage->GetDimensions(dims);
+      if (dims[0] != view.Columns() || dims[1] != view.Rows() || maskImage->GetScalarType() != VTK_UNSIGNED_CHAR ||
+        maskImage->GetNumberOfScalarComponents() != 1)
+      {
+        throw xp::InputError("mask input", "must be unsigned char with the output's " + std::to_string(view.Columns()) +
+            "x" + std::to_string(view.Rows()) + " pixels, got " + std::to_string(dims[0]) + "x" + std::to_string(dims[1]));
+      }
+      mask = static_cast<const uint8_t*>(maskImage->GetScalarPointer());
+    }
+    const xp::AttenuationVolume& volume = this->Attenuation(ct);
+    Eigen::Vector3d isoInCT(this->IsocenterInCT);
+    if (this->UseCTCenterAsIsocenter)
+    {
+      int extent[6];
+      ct->GetExtent(extent);
+      const double middle[3] = { 0.5 * (extent[0] + extent[1]), 0.5 * (extent[2] + extent[3]), 0.5 * (extent[4] + extent[5]) };
+      ct->TransformContinuousIndexToPhysicalPoint(middle, isoInCT.data());
+    }
+    const Eigen::Vector3d roomIso(this->RoomIsocenter);
+    const Eigen::Isometry3d ctToRoom =
+      xp::MisalignedCTToRoom(xp::PlannedCTToRoom(this->Position, isoInCT, roomIso), this->Misalignment, roomIso);
+
+    vtkImageData* outputs[3];
+    for (int port = 0; port < 3; ++port)
+    {
+      outputs[port] = vtkImageData::GetData(outputVector, port);
+      outputs[port]->SetExtent(0, view.Columns() - 1, 0, view.Rows() - 1, 0, 0);
+    }
+    outputs[0]->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+    outputs[1]->AllocateScalars(VTK_FLOAT, 1);
+    outputs[2]->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+    outputs[0]->GetPointData()->GetScalars()->SetName("Transmission12");
+    outputs[1]->GetPointData()->GetScalars()->SetName("LineIntegral");
+    outputs[2]->GetPointData()->GetScalars()->SetName("Valid");
+    float* integrals = static_cast<float*>(outputs[1]->GetScalarPointer());
+    xp::RayCastSettings settings;
+    settings.method = this->Method == 1 ? xp::RayCastMethod::Siddon : xp::RayCastMethod::Trilinear;
+    settings.stepSize = this->StepSize;
+    this->NumberOfTracedRays = xp::RenderLineIntegrals(
+      volume, ctToRoom, view.source, xp::DetectorGrid::BottomRowFirst(view), mask, integrals, settings);
+    xp::LineIntegralsTo12Bit(integrals, mask, count, static_cast<uint16_t*>(outputs[0]->GetScalarPointer()));
+    uint8_t* valid = static_cast<uint8_t*>(outputs[2]->GetScalarPointer());
+    for (long long i = 0; i < count; ++i)
+    {
+      valid[i] = (!mask || mask[i]) ? 255 : 0;
+    }
+  }
+  catch (const xp::Error& e)
+  {
+    vtkErrorMacro(<< e.what());
+    return 0;
+  }
+  return 1;
+}
+
+void vtkXPDRRFilter::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "View: " << this->View.name << " (" << this->View.Columns() << "x" << this->View.Rows() << ")\n";
+  os << indent << "OutputSize: " << this->OutputSize[0] << " " << this->OutputSize[1] << "\n";
+  os << indent << "RoomIsocenter: " << this->RoomIsocenter[0] << " " << this->RoomIsocenter[1] << " " << this->RoomIsocenter[2] << "\n";
+  os << indent << "UseCTCenterAsIsocenter: " << this->UseCTCenterAsIsocenter << "\n";
+  os << indent << "IsocenterInCT: " << this->IsocenterInCT[0] << " " << this->IsocenterInCT[1] << " " << this->IsocenterInCT[2] << "\n";
+  os << indent << "PatientPosition: " << xp::ToString(this->Position) << "\n";
+  os << indent << "Misalignment: " << this->Misalignment.ToString() << "\n";
+  os << indent << "MuWater: " << this->MuWater << "\n";
+  os << indent << "StepSize: " << this->StepSize << "\n";
+  os << indent << "Method: " << (this->Method == 1 ? "Siddon" : "Trilinear") << "\n";
+}

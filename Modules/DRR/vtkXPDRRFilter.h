@@ -1,0 +1,134 @@
+/**
+ * @class vtkXPDRRFilter
+ * @brief Digitally reconstructed radiograph of a CT for one X-ray view, optionally masked.
+ *
+ * Port 0: the CT (vtkImageData, HU, any scalar type; origin/spacing/DirectionMatrix give LPS mm).
+ * Port 1 (optional): a validity mask on the output grid (unsigned char, non-zero = trace the ray).
+ *
+ * The CT is placed in the room by the patient position and IsocenterInCT (planned set-up,
+ * GEOMETRY.md), then moved by the patient Misalignment (mm, degrees). Outputs, all on the panel
+ * grid with rows bottom-up as VTK stores them and placed in Room coordinates:
+ *  - port 0: 12-bit transmission round(4095 exp(-integral)) as unsigned short (0 where masked);
+ *  - port 1: the line integral of mu as float (0 where masked);
+ *  - port 2: the validity of each pixel (255 traced, 0 masked) as unsigned char.
+ * Masked pixels are not traced at all. The HU->mu volume is built once and reused while the CT
+ * and MuWater stay the same, so rendering many poses costs only the rays.
+ */
+#ifndef vtkXPDRRFilter_h
+#define vtkXPDRRFilter_h
+
+#include "vtkImageAlgorithm.h"
+#include "vtkXPDRRModule.h"
+
+#include "xpPose.h"
+#include "xpRayCaster.h"
+#include "xpXRayView.h"
+
+#include <memory>
+
+namespace xp
+{
+class AttenuationVolume;
+}
+
+class VTKXPDRR_EXPORT vtkXPDRRFilter : public vtkImageAlgorithm
+{
+public:
+  static vtkXPDRRFilter* New();
+  vtkTypeMacro(vtkXPDRRFilter, vtkImageAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  void SetCTConnection(vtkAlgorithmOutput* output) { this->SetInputConnection(0, output); }
+  void SetMaskConnection(vtkAlgorithmOutput* output) { this->SetInputConnection(1, output); }
+
+  /** The view to render; its panel size is the output size unless OutputSize is set. */
+  void SetView(const xp::XRayView& view);
+  const xp::XRayView& GetView() const { return this->View; }
+
+  ///@{
+  /** Room isocentre (mm), from the geometry file. */
+  vtkSetVector3Macro(RoomIsocenter, double);
+  vtkGetVector3Macro(RoomIsocenter, double);
+  ///@}
+
+  ///@{
+  /** CT point (LPS mm) placed at the isocentre; used when UseCTCenterAsIsocenter is off. */
+  vtkSetVector3Macro(IsocenterInCT, double);
+  vtkGetVector3Macro(IsocenterInCT, double);
+  vtkSetMacro(UseCTCenterAsIsocenter, bool);
+  vtkGetMacro(UseCTCenterAsIsocenter, bool);
+  vtkBooleanMacro(UseCTCenterAsIsocenter, bool);
+  ///@}
+
+  /** DICOM patient position of the CT (default HFS). */
+  void SetPatientPosition(xp::PatientPosition position);
+  xp::PatientPosition GetPatientPosition() const { return this->Position; }
+
+  /** Patient misalignment in Room terms (GEOMETRY.md): translation mm, pitch/roll/yaw degrees. */
+  void SetMisalignment(const xp::Pose& pose);
+  const xp::Pose& GetMisalignment() const { return this->Misalignment; }
+
+  ///@{
+  /** Attenuation of water in 1/mm: mu = MuWater (1 + HU/1000), clamped at 0. */
+  vtkSetClampMacro(MuWater, double, 1e-6, 1.0);
+  vtkGetMacro(MuWater, double);
+  ///@}
+
+  ///@{
+  /** Sampling step along the ray (mm) for trilinear sampling; 0 = smallest voxel spacing. */
+  vtkSetClampMacro(StepSize, double, 0.0, 100.0);
+  vtkGetMacro(StepSize, double);
+  ///@}
+
+  ///@{
+  /** 0 = trilinear at a fixed step (default), 1 = exact Siddon through nearest voxels. */
+  vtkSetClampMacro(Method, int, 0, 1);
+  vtkGetMacro(Method, int);
+  ///@}
+
+  ///@{
+  /** Output columns and rows on the same panel (resampled pitch); 0 0 = the panel's own size. */
+  vtkSetVector2Macro(OutputSize, int);
+  vtkGetVector2Macro(OutputSize, int);
+  ///@}
+
+  /** The view actually rendered (OutputSize applied). */
+  xp::XRayView GetOutputView() const;
+
+  /** Rays traced by the last update. */
+  vtkGetMacro(NumberOfTracedRays, long long);
+
+protected:
+  vtkXPDRRFilter();
+  ~vtkXPDRRFilter() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
+  int RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+private:
+  vtkXPDRRFilter(const vtkXPDRRFilter&) = delete;
+  void operator=(const vtkXPDRRFilter&) = delete;
+
+  const xp::AttenuationVolume& Attenuation(vtkImageData* ct);
+
+  xp::XRayView View;
+  xp::Pose Misalignment;
+  xp::PatientPosition Position = xp::PatientPosition::HFS;
+  double RoomIsocenter[3] = { 0, 0, 0 };
+  double IsocenterInCT[3] = { 0, 0, 0 };
+  bool UseCTCenterAsIsocenter = true;
+  double MuWater = 0.0193;
+  double StepSize = 0.0;
+  int Method = 0;
+  int OutputSize[2] = { 0, 0 };
+  long long NumberOfTracedRays = 0;
+
+  std::unique_ptr<xp::AttenuationVolume> Volume;
+  vtkMTimeType VolumeTime = 0;
+  double VolumeMuWater = 0.0;
+};
+
+#endif

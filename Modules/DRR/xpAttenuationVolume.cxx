@@ -1,0 +1,91 @@
+#include "xpAttenuationVolume.h"
+
+#include "xpError.h"
+
+#include <vtkSMPTools.h>
+
+#include <algorithm>
+
+namespace xp
+{
+
+AttenuationVolume::AttenuationVolume(
+  const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater)
+  : Dims(dims)
+  , Padded(dims + Eigen::Vector3i::Constant(2))
+  , Water(muWater)
+{
+  if (dims.minCoeff() < 1)
+  {
+    throw Error("attenuation volume: empty CT");
+  }
+  if (!(muWater > 0.0))
+  {
+    throw InputError("mu_water", "must be positive");
+  }
+  this->PaddedToCT = indexToCT * Eigen::Translation3d(-1.0, -1.0, -1.0);
+  this->MinSpacing = indexToCT.linear().colwise().norm().minCoeff();
+  const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
+  this->Mu.assign(nxy * this->Padded[2], 0.0f);
+  const float scale = static_cast<float>(muWater / 1000.0);
+  const float offset = static_cast<float>(muWater);
+  vtkSMPTools::For(0, dims[2],
+    [&](int k0, int k1)
+    {
+      for (int k = k0; k < k1; ++k)
+      {
+        for (int j = 0; j < dims[1]; ++j)
+        {
+          const float* in = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
+          float* out = this->Mu.data() + (k + 1) * nxy + (j + 1) * nx + 1;
+          for (int i = 0; i < dims[0]; ++i)
+          {
+            out[i] = std::max(0.0f, offset + scale * in[i]);
+          }
+        }
+      }
+    });
+
+  // A block is occupied when any voxel that trilinear samples inside it may touch is non-zero:
+  // voxels of the block and one beyond on the high side.
+  const int b = 1 << BlockShift;
+  this->Blocks = (this->Padded + Eigen::Vector3i::Constant(b - 1)) / b;
+  this->Occupied.assign(static_cast<size_t>(this->Blocks.prod()), 0);
+  vtkSMPTools::For(0, this->Blocks[2],
+    [&](int bz0, int bz1)
+    {
+      for (int bz = bz0; bz < bz1; ++bz)
+      {
+        for (int by = 0; by < this->Blocks[1]; ++by)
+        {
+          for (int bx = 0; bx < this->Blocks[0]; ++bx)
+          {
+            bool any = false;
+            const int z1 = std::min(this->Padded[2], (bz + 1) * b + 1), y1 = std::min(this->Padded[1], (by + 1) * b + 1),
+                      x1 = std::min(this->Padded[0], (bx + 1) * b + 1);
+            for (int z = bz * b; z < z1 && !any; ++z)
+              for (int y = by * b; y < y1 && !any; ++y)
+                for (int x = bx * b; x < x1 && !any; ++x)
+                  any = this->Mu[z * nxy + y * nx + x] > 0.0f;
+            this->Occupied[(static_cast<size_t>(bz) * this->Blocks[1] + by) * this->Blocks[0] + bx] = any;
+          }
+        }
+      }
+    });
+}
+
+float AttenuationVolume::At(int i, int j, int k) const
+{
+  return this->Mu[(static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1)];
+}
+
+double AttenuationVolume::OccupiedFraction() const
+{
+  if (this->Occupied.empty())
+  {
+    return 0.0;
+  }
+  return static_cast<double>(std::count(this->Occupied.begin(), this->Occupied.end(), 1)) / this->Occupied.size();
+}
+
+} // namespace xp

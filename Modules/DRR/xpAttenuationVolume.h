@@ -1,0 +1,69 @@
+/**
+ * @file xpAttenuationVolume.h
+ * @brief A CT converted once to linear attenuation, laid out for fast ray casting.
+ *
+ * mu = muWater * (1 + HU/1000), clamped at 0 (air and below contribute nothing). The voxels are
+ * stored with one voxel of zeros around the volume, so trilinear sampling needs no bounds
+ * checks, and an occupancy grid of 8x8x8 blocks marks where any attenuation is, so rays skip
+ * empty space. Build it once per CT and reuse it for every pose.
+ */
+#ifndef xpAttenuationVolume_h
+#define xpAttenuationVolume_h
+
+#include "vtkXPDRRModule.h"
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+namespace xp
+{
+
+class VTKXPDRR_EXPORT AttenuationVolume
+{
+public:
+  static constexpr int BlockShift = 3; ///< occupancy blocks are 2^3 = 8 voxels wide
+
+  AttenuationVolume() = default;
+
+  /**
+   * @param hounsfield voxels, x fastest, dims[0] * dims[1] * dims[2] values
+   * @param indexToCT  voxel index -> CT (LPS) mm; may include rotation (DirectionMatrix)
+   * @param muWater    attenuation of water (1/mm)
+   */
+  AttenuationVolume(const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
+    double muWater);
+
+  const Eigen::Vector3i& Dimensions() const { return this->Dims; }
+  const Eigen::Vector3i& PaddedDimensions() const { return this->Padded; }
+  /** Padded voxel index (original index + 1) -> CT mm. */
+  const Eigen::Affine3d& PaddedIndexToCT() const { return this->PaddedToCT; }
+  const float* Voxels() const { return this->Mu.data(); }
+  /** mu of original voxel (i, j, k). */
+  float At(int i, int j, int k) const;
+
+  const Eigen::Vector3i& BlockDimensions() const { return this->Blocks; }
+  bool BlockOccupied(int bx, int by, int bz) const
+  {
+    return this->Occupied[(static_cast<size_t>(bz) * this->Blocks[1] + by) * this->Blocks[0] + bx] != 0;
+  }
+  /** Smallest voxel spacing (mm), the default sampling step. */
+  double MinimumSpacing() const { return this->MinSpacing; }
+  double MuWater() const { return this->Water; }
+  /** Fraction of occupancy blocks that hold attenuation (for reports and benchmarks). */
+  double OccupiedFraction() const;
+
+private:
+  Eigen::Vector3i Dims = Eigen::Vector3i::Zero();
+  Eigen::Vector3i Padded = Eigen::Vector3i::Zero();
+  Eigen::Vector3i Blocks = Eigen::Vector3i::Zero();
+  Eigen::Affine3d PaddedToCT = Eigen::Affine3d::Identity();
+  std::vector<float> Mu;
+  std::vector<uint8_t> Occupied;
+  double MinSpacing = 1.0;
+  double Water = 0.0;
+};
+
+} // namespace xp
+
+#endif

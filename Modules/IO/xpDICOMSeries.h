@@ -1,0 +1,50 @@
+/**
+ * @file xpDICOMSeries.h
+ * @brief Finding, checking and reading one CT series in a folder of DICOM files (GDCM).
+ *
+ * Slices are sorted by their position along the slice normal (never by file name), and the
+ * series is refused, with the file named, when it could not give a correct volume: unreadable or
+ * truncated files, several series without a choice, a missing slice or non-uniform spacing,
+ * gantry tilt, mixed sizes or orientations, not a CT.
+ */
+#ifndef xpDICOMSeries_h
+#define xpDICOMSeries_h
+
+#include "vtkXPIOModule.h"
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace xp
+{
+
+struct VTKXPIO_EXPORT CTSeriesInfo
+{
+  std::string directory;
+  std::string seriesInstanceUID;
+  std::string seriesDescription;
+  std::string patientPosition;         ///< DICOM (0018,5100), "HFS" when absent
+  std::vector<std::string> files;      ///< sorted along the slice normal
+  int columns = 0;                     ///< pixels per row
+  int rows = 0;                        ///< rows per slice
+  Eigen::Vector3d spacing;             ///< between columns, between rows, between slices (mm)
+  Eigen::Vector3d origin;              ///< centre of the first voxel, LPS mm
+  Eigen::Matrix3d direction;           ///< columns: row direction, column direction, slice normal
+};
+
+/**
+ * Scans `directory` (not recursively) and returns the CT series there. With several series
+ * present, `seriesUID` selects one; empty and ambiguous throws xp::InputError listing them.
+ */
+VTKXPIO_EXPORT CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& seriesUID = "");
+
+/**
+ * Reads the pixels of a scanned series in Hounsfield units (rescale slope/intercept applied),
+ * x fastest, slice by slice in sorted order. Throws xp::InputError naming the file that fails.
+ */
+VTKXPIO_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, std::vector<float>& hounsfield);
+
+} // namespace xp
+
+#endif

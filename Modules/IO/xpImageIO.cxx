@@ -1,0 +1,115 @@
+#include "xpImageIO.h"
+
+#include "xpError.h"
+#include "xpXRayView.h"
+
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPNGWriter.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace xp
+{
+
+void WritePNG(vtkImageData* image, const std::string& path)
+{
+  const int type = image->GetScalarType();
+  if (type != VTK_UNSIGNED_CHAR && type != VTK_UNSIGNED_SHORT)
+  {
+    throw Error(path, "PNG needs 8- or 16-bit unsigned pixels");
+  }
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetInputData(image);
+  writer->SetFileName(path.c_str());
+  writer->Write();
+  if (writer->GetErrorCode() != 0)
+  {
+    throw Error(path, "cannot write PNG");
+  }
+}
+
+void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path)
+{
+  int dims[3];
+  image->GetDimensions(dims);
+  if (image->GetScalarType() != VTK_FLOAT || dims[0] != view.Columns() || dims[1] != view.Rows())
+  {
+    throw Error(path, "detector image does not match the view's panel size, or is not float");
+  }
+  std::ofstream out(path, std::ios::binary);
+  const auto& o = view.PixelCenter(0, 0);
+  const auto normal = view.rowDirection.cross(view.columnDirection);
+  out << "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+      << "CompressedData = False\n"
+      << "TransformMatrix = " << view.rowDirection.transpose() << " " << view.columnDirection.transpose() << " "
+      << normal.transpose() << "\n"
+      << "Offset = " << o.transpose() << "\nCenterOfRotation = 0 0 0\nAnatomicalOrientation = ???\n"
+      << "ElementSpacing = " << view.pixelSpacing[0] << " " << view.pixelSpacing[1] << " 1\n"
+      << "DimSize = " << dims[0] << " " << dims[1] << " 1\nElementType = MET_FLOAT\n"
+      << "ElementDataFile = LOCAL\n";
+  const float* pixels = static_cast<const float*>(image->GetScalarPointer());
+  for (int row = 0; row < dims[1]; ++row) // detector row 0 first: VTK row rows-1
+  {
+    out.write(reinterpret_cast<const char*>(pixels + static_cast<size_t>(dims[1] - 1 - row) * dims[0]),
+      sizeof(float) * dims[0]);
+  }
+  if (!out)
+  {
+    throw Error(path, "cannot write MetaImage");
+  }
+}
+
+StagedOutputDirectory::StagedOutputDirectory(const std::string& directory)
+  : Final(directory)
+{
+  if (mkdir(directory.c_str(), 0755) != 0 && errno != EEXIST)
+  {
+    throw InputError(directory, std::string("cannot create the output folder: ") + std::strerror(errno));
+  }
+  std::string pattern = directory + "/.xpose-partial-XXXXXX";
+  if (!mkdtemp(pattern.data()))
+  {
+    throw InputError(directory, std::string("cannot write into the output folder: ") + std::strerror(errno));
+  }
+  this->Staging = pattern;
+}
+
+StagedOutputDirectory::~StagedOutputDirectory()
+{
+  if (!this->Committed)
+  {
+    for (const std::string& name : this->Names)
+    {
+      std::remove((this->Staging + "/" + name).c_str());
+    }
+  }
+  rmdir(this->Staging.c_str());
+}
+
+std::string StagedOutputDirectory::Path(const std::string& fileName)
+{
+  this->Names.push_back(fileName);
+  return this->Staging + "/" + fileName;
+}
+
+void StagedOutputDirectory::Commit()
+{
+  for (const std::string& name : this->Names)
+  {
+    const std::string from = this->Staging + "/" + name, to = this->Final + "/" + name;
+    struct stat status;
+    if (stat(from.c_str(), &status) == 0 && std::rename(from.c_str(), to.c_str()) != 0)
+    {
+      throw Error(to, std::string("cannot move the output into place: ") + std::strerror(errno));
+    }
+  }
+  this->Committed = true;
+}
+
+} // namespace xp

@@ -1,0 +1,61 @@
+/**
+ * @file xpImageIO.h
+ * @brief Output of detector images (PNG 8/16-bit, MetaImage float with its Room placement) and
+ *        an output folder that is written completely or not at all.
+ *
+ * Detector images in xpose's VTK pipelines store rows bottom-up (VTK's j runs up): VTK row j
+ * holds detector row rows-1-j. PNG files keep row 0 = detector row 0 at the top.
+ */
+#ifndef xpImageIO_h
+#define xpImageIO_h
+
+#include "vtkXPIOModule.h"
+
+#include <string>
+#include <vector>
+
+class vtkImageData;
+
+namespace xp
+{
+struct XRayView;
+
+/** Writes an unsigned char or unsigned short 2D image as PNG (top row = detector row 0). */
+VTKXPIO_EXPORT void WritePNG(vtkImageData* image, const std::string& path);
+
+/**
+ * Writes a float 2D detector image as MetaImage: pixel (i, j) = detector column i, row j, placed
+ * in Room coordinates by Offset/TransformMatrix of `view` (a 3D image one pixel deep).
+ */
+VTKXPIO_EXPORT void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path);
+
+/**
+ * Collects output files in a hidden staging folder inside `directory` and moves them into place
+ * only on Commit(): a command that fails half-way leaves nothing half-written behind.
+ */
+class VTKXPIO_EXPORT StagedOutputDirectory
+{
+public:
+  /** Creates `directory` if needed and a staging folder in it; throws xp::InputError if it cannot. */
+  explicit StagedOutputDirectory(const std::string& directory);
+  ~StagedOutputDirectory();
+  StagedOutputDirectory(const StagedOutputDirectory&) = delete;
+  StagedOutputDirectory& operator=(const StagedOutputDirectory&) = delete;
+
+  /** Where to write `fileName` now (inside the staging folder). */
+  std::string Path(const std::string& fileName);
+  /** Moves every staged file into the directory (replacing older files of the same name). */
+  void Commit();
+
+  const std::string& Directory() const { return this->Final; }
+
+private:
+  std::string Final;
+  std::string Staging;
+  std::vector<std::string> Names;
+  bool Committed = false;
+};
+
+} // namespace xp
+
+#endif

@@ -1,0 +1,40 @@
+/**
+ * @file xpVolumeIO.h
+ * @brief Loads a planning CT from a DICOM folder, a MetaImage (.mha/.mhd) or NIfTI (.nii/.nii.gz).
+ */
+#ifndef xpVolumeIO_h
+#define xpVolumeIO_h
+
+#include "vtkXPIOModule.h"
+
+#include <vtkSmartPointer.h>
+
+#include <string>
+
+class vtkImageData;
+
+namespace xp
+{
+
+struct VTKXPIO_EXPORT CTVolume
+{
+  /** Float HU; index-to-physical (origin, spacing, DirectionMatrix) gives LPS mm. */
+  vtkSmartPointer<vtkImageData> image;
+  /** DICOM Patient Position; "HFS" for formats that do not carry one. */
+  std::string patientPosition = "HFS";
+  std::string description;
+};
+
+/**
+ * Reads a CT. A folder is read as DICOM (`seriesUID` selects among several series); a file by
+ * its extension. MetaImage direction (TransformMatrix) is taken as LPS, as ITK writes it; NIfTI
+ * qform/sform (RAS) is converted to LPS. Throws xp::InputError naming the path.
+ */
+VTKXPIO_EXPORT CTVolume ReadCTVolume(const std::string& path, const std::string& seriesUID = "");
+
+/** The physical (LPS) centre of an image's voxel grid, with its direction matrix. */
+VTKXPIO_EXPORT void ImageCenter(vtkImageData* image, double center[3]);
+
+} // namespace xp
+
+#endif
