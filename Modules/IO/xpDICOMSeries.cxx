@@ -3,10 +3,13 @@
 #include "xpError.h"
 
 #include <gdcmDirectory.h>
+#include <gdcmExplicitDataElement.h>
+#include <gdcmImplicitDataElement.h>
 #include <gdcmImage.h>
 #include <gdcmImageReader.h>
 #include <gdcmReader.h>
 #include <gdcmStringFilter.h>
+#include <gdcmTrace.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -35,6 +38,7 @@ const gdcm::Tag PatientPositionTag(0x0018, 0x5100);
 const gdcm::Tag GantryTiltTag(0x0018, 0x1120);
 const gdcm::Tag FramesTag(0x0028, 0x0008);
 const gdcm::Tag SamplesTag(0x0028, 0x0002);
+const gdcm::Tag BitsAllocatedTag(0x0028, 0x0100);
 const gdcm::Tag PixelDataTag(0x7fe0, 0x0010);
 
 struct SliceHeader
@@ -184,7 +188,14 @@ void CheckConsistent(const SliceHeader& first, const SliceHeader& h)
 
 double SliceSpacing(const std::vector<SliceHeader>& slices, const Eigen::Vector3d& normal)
 {
-  const double spacing = (slices.back().along - slices.front().along) / (slices.size() - 1);
+  // The median gap is the series' spacing: a single missing or extra slice cannot shift it.
+  std::vector<double> gaps;
+  for (size_t k = 1; k < slices.size(); ++k)
+  {
+    gaps.push_back(slices[k].along - slices[k - 1].along);
+  }
+  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
+  const double spacing = gaps[gaps.size() / 2];
   for (size_t k = 1; k < slices.size(); ++k)
   {
     const double gap = slices[k].along - slices[k - 1].along;
@@ -197,7 +208,7 @@ double SliceSpacing(const std::vector<SliceHeader>& slices, const Eigen::Vector3
       const bool missing = gap > 1.5 * spacing;
       throw InputError(slices[k].file,
         std::string(missing ? "missing slice" : "non-uniform slice spacing") + ": " + std::to_string(gap) +
-          " mm after " + slices[k - 1].file + " where the series averages " + std::to_string(spacing) + " mm");
+          " mm after " + slices[k - 1].file + " where the series has " + std::to_string(spacing) + " mm");
     }
     // Positions must advance along the normal; an in-plane drift means a tilted gantry.
     const Eigen::Vector3d step = slices[k].position - slices[k - 1].position;
@@ -207,6 +218,23 @@ double SliceSpacing(const std::vector<SliceHeader>& slices, const Eigen::Vector3
     }
   }
   return spacing;
+}
+
+size_t FileSize(const std::string& file)
+{
+  std::ifstream in(file, std::ios::binary | std::ios::ate);
+  return static_cast<size_t>(std::max<std::streamoff>(0, in.tellg()));
+}
+
+/** Bytes the file needs for what its elements declare. GDCM pads a truncated native pixel
+ *  data element silently, so comparing this with the file size is how truncation shows. */
+size_t EncodedLength(const gdcm::File& file)
+{
+  const bool isExplicit = file.GetHeader().GetDataSetTransferSyntax().IsExplicit();
+  size_t length = isExplicit ? static_cast<size_t>(file.GetDataSet().GetLength<gdcm::ExplicitDataElement>())
+                             : static_cast<size_t>(file.GetDataSet().GetLength<gdcm::ImplicitDataElement>());
+  length += file.GetHeader().GetLength<gdcm::ExplicitDataElement>();
+  return length + (file.GetHeader().GetPreamble().IsEmpty() ? 0 : 132);
 }
 
 template <typename T>
@@ -223,6 +251,7 @@ void Rescale(const char* raw, size_t count, double slope, double intercept, floa
 
 CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& seriesUID)
 {
+  gdcm::Trace::WarningOff(); // problems are reported as xp::InputError naming the file
   gdcm::Directory dir;
   if (dir.Load(directory, false) == 0)
   {
@@ -318,6 +347,10 @@ void ReadCTSeriesVoxels(const CTSeriesInfo& info, std::vector<float>& hounsfield
     if (!reader.Read())
     {
       throw InputError(file, "cannot read the pixel data (corrupt, truncated or unsupported encoding)");
+    }
+    if (EncodedLength(reader.GetFile()) > FileSize(file))
+    {
+      throw InputError(file, "truncated: the file ends before its pixel data does");
     }
     const gdcm::Image& image = reader.GetImage();
     const unsigned int* dims = image.GetDimensions();

@@ -3,6 +3,7 @@
 #include "xpError.h"
 
 #include <gdcmImageWriter.h>
+#include <gdcmTrace.h>
 #include <gdcmUIDGenerator.h>
 
 #include <Eigen/Geometry>
@@ -49,6 +50,7 @@ std::vector<std::string> WriteCTSeries(
   {
     throw Error(directory, "CT volume dimensions do not match its voxel count");
   }
+  gdcm::Trace::WarningOff(); // xpose reports its own errors; GDCM's notes go to stderr otherwise
   gdcm::UIDGenerator uids;
   const std::string studyUID = options.studyInstanceUID.empty() ? uids.Generate() : options.studyInstanceUID;
   const std::string seriesUID = options.seriesInstanceUID.empty() ? uids.Generate() : options.seriesInstanceUID;
@@ -81,6 +83,7 @@ std::vector<std::string> WriteCTSeries(
     const Eigen::Vector3d position = volume.origin + k * volume.spacing[2] * sliceDir + k * shear * colDir;
     const double origin[3] = { position[0], position[1], position[2] };
     image.SetOrigin(origin);
+    image.SetOrigin(2, origin[2]); // SetOrigin(const double*) keeps only NumberOfDimensions values
     const double cosines[6] = { rowDir[0], rowDir[1], rowDir[2], colDir[0], colDir[1], colDir[2] };
     image.SetDirectionCosines(cosines);
     gdcm::DataElement pixels(gdcm::Tag(0x7fe0, 0x0010));

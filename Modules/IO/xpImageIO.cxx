@@ -3,6 +3,7 @@
 #include "xpError.h"
 #include "xpXRayView.h"
 
+#include <Eigen/Geometry>
 #include <vtkImageData.h>
 #include <vtkNew.h>
 #include <vtkPNGWriter.h>
