@@ -14,6 +14,7 @@
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include <chrono>
 #include <vector>
 
 vtkStandardNewMacro(vtkXPDRRFilter);
@@ -183,7 +184,11 @@ int vtkXPDRRFilter::RequestData(vtkInformation*, vtkInformationVector** inputVec
       }
       mask = static_cast<const uint8_t*>(maskImage->GetScalarPointer());
     }
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point prepareStart = Clock::now();
     const xp::AttenuationVolume& volume = this->Attenuation(ct);
+    const Clock::time_point renderStart = Clock::now();
+    this->LastPreparationSeconds = std::chrono::duration<double>(renderStart - prepareStart).count();
     Eigen::Vector3d isoInCT(this->IsocenterInCT);
     if (this->UseCTCenterAsIsocenter)
     {
@@ -214,6 +219,7 @@ int vtkXPDRRFilter::RequestData(vtkInformation*, vtkInformationVector** inputVec
     settings.stepSize = this->StepSize;
     this->NumberOfTracedRays = xp::RenderLineIntegrals(
       volume, ctToRoom, view.source, xp::DetectorGrid::BottomRowFirst(view), mask, integrals, settings);
+    this->LastRenderSeconds = std::chrono::duration<double>(Clock::now() - renderStart).count();
     xp::LineIntegralsTo12Bit(integrals, mask, count, static_cast<uint16_t*>(outputs[0]->GetScalarPointer()));
     uint8_t* valid = static_cast<uint8_t*>(outputs[2]->GetScalarPointer());
     for (long long i = 0; i < count; ++i)

@@ -97,6 +97,9 @@ public:
 
   /** Rays traced by the last update. */
   vtkGetMacro(NumberOfTracedRays, long long);
+  /** Seconds the last update spent casting rays, and building the attenuation volume (0 when reused). */
+  vtkGetMacro(LastRenderSeconds, double);
+  vtkGetMacro(LastPreparationSeconds, double);
 
 protected:
   vtkXPDRRFilter();
@@ -125,6 +128,8 @@ private:
   int Method = 0;
   int OutputSize[2] = { 0, 0 };
   long long NumberOfTracedRays = 0;
+  double LastRenderSeconds = 0.0;
+  double LastPreparationSeconds = 0.0;
 
   std::unique_ptr<xp::AttenuationVolume> Volume;
   vtkMTimeType VolumeTime = 0;

@@ -10,7 +10,8 @@ namespace xp
 {
 
 AttenuationVolume::AttenuationVolume(
-  const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater)
+  const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater,
+  double airThreshold)
   : Dims(dims)
   , Padded(dims + Eigen::Vector3i::Constant(2))
   , Water(muWater)
@@ -27,8 +28,10 @@ AttenuationVolume::AttenuationVolume(
   this->MinSpacing = indexToCT.linear().colwise().norm().minCoeff();
   const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
   this->Mu.assign(nxy * this->Padded[2], 0.0f);
+  // mu = muWater (1 + HU/1000) = scale (HU + 1000): exactly 0 for air, so empty blocks are
+  // found; voxels below airThreshold (noise in the air around the patient) count as air.
   const float scale = static_cast<float>(muWater / 1000.0);
-  const float offset = static_cast<float>(muWater);
+  const float air = static_cast<float>(airThreshold);
   vtkSMPTools::For(0, dims[2],
     [&](int k0, int k1)
     {
@@ -40,7 +43,7 @@ AttenuationVolume::AttenuationVolume(
           float* out = this->Mu.data() + (k + 1) * nxy + (j + 1) * nx + 1;
           for (int i = 0; i < dims[0]; ++i)
           {
-            out[i] = std::max(0.0f, offset + scale * in[i]);
+            out[i] = in[i] < air ? 0.0f : scale * std::max(0.0f, in[i] + 1000.0f);
           }
         }
       }

@@ -2,7 +2,8 @@
  * @file xpAttenuationVolume.h
  * @brief A CT converted once to linear attenuation, laid out for fast ray casting.
  *
- * mu = muWater * (1 + HU/1000), clamped at 0 (air and below contribute nothing). The voxels are
+ * mu = muWater * (1 + HU/1000), clamped at 0; voxels below an air threshold (default -950 HU,
+ * well below lung and fat but above the noise of air in real scans) are air, mu = 0. The voxels are
  * stored with one voxel of zeros around the volume, so trilinear sampling needs no bounds
  * checks, and an occupancy grid of 8x8x8 blocks marks where any attenuation is, so rays skip
  * empty space. Build it once per CT and reuse it for every pose.
@@ -30,9 +31,12 @@ public:
    * @param hounsfield voxels, x fastest, dims[0] * dims[1] * dims[2] values
    * @param indexToCT  voxel index -> CT (LPS) mm; may include rotation (DirectionMatrix)
    * @param muWater    attenuation of water (1/mm)
+   * @param airThreshold HU below which a voxel is air (mu = 0)
    */
   AttenuationVolume(const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
-    double muWater);
+    double muWater, double airThreshold = DefaultAirThreshold);
+
+  static constexpr double DefaultAirThreshold = -950.0;
 
   const Eigen::Vector3i& Dimensions() const { return this->Dims; }
   const Eigen::Vector3i& PaddedDimensions() const { return this->Padded; }

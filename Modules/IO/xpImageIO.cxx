@@ -6,7 +6,10 @@
 #include <Eigen/Geometry>
 #include <vtkImageData.h>
 #include <vtkNew.h>
+#include <vtkPNGReader.h>
 #include <vtkPNGWriter.h>
+#include <vtkPointData.h>
+#include <vtkDataArray.h>
 
 #include <cerrno>
 #include <cstdio>
@@ -33,6 +36,47 @@ void WritePNG(vtkImageData* image, const std::string& path)
   {
     throw Error(path, "cannot write PNG");
   }
+}
+
+vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows)
+{
+  vtkNew<vtkPNGReader> reader;
+  if (!reader->CanReadFile(path.c_str()))
+  {
+    throw InputError(path, "not a readable PNG mask");
+  }
+  reader->SetFileName(path.c_str());
+  reader->Update();
+  vtkImageData* image = reader->GetOutput();
+  int dims[3];
+  image->GetDimensions(dims);
+  if (dims[0] != columns || dims[1] != rows)
+  {
+    throw InputError(path, "mask is " + std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + " pixels, the image is " +
+        std::to_string(columns) + "x" + std::to_string(rows));
+  }
+  vtkDataArray* values = image->GetPointData()->GetScalars();
+  auto mask = vtkSmartPointer<vtkImageData>::New();
+  mask->SetDimensions(columns, rows, 1);
+  mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  uint8_t* out = static_cast<uint8_t*>(mask->GetScalarPointer());
+  const int components = values->GetNumberOfComponents();
+  long long valid = 0;
+  for (vtkIdType i = 0; i < static_cast<vtkIdType>(columns) * rows; ++i)
+  {
+    bool any = false;
+    for (int c = 0; c < std::min(components, 3); ++c)
+    {
+      any = any || values->GetComponent(i, c) != 0.0;
+    }
+    out[i] = any ? 1 : 0;
+    valid += out[i];
+  }
+  if (valid == 0)
+  {
+    throw InputError(path, "the mask is empty (no pixel is valid)");
+  }
+  return mask;
 }
 
 void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path)

@@ -11,6 +11,8 @@
 
 #include "vtkXPIOModule.h"
 
+#include <vtkSmartPointer.h>
+
 #include <string>
 #include <vector>
 
@@ -30,6 +32,13 @@ VTKXPIO_EXPORT void WritePNG(vtkImageData* image, const std::string& path);
 VTKXPIO_EXPORT void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path);
 
 /**
+ * Reads a validity mask (PNG, non-zero = valid) for a detector of columns x rows, returned in
+ * VTK row order as unsigned char 0/1. Throws xp::InputError naming the file when it cannot be
+ * read, its size differs, or no pixel is valid.
+ */
+VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows);
+
+/**
  * Collects output files in a hidden staging folder inside `directory` and moves them into place
  * only on Commit(): a command that fails half-way leaves nothing half-written behind.
  */
@@ -44,6 +53,9 @@ public:
 
   /** Where to write `fileName` now (inside the staging folder). */
   std::string Path(const std::string& fileName);
+  /** The staging folder itself, for writers that create files by name; register each with Track. */
+  const std::string& StagingFolder() const { return this->Staging; }
+  void Track(const std::string& fileName) { this->Names.push_back(fileName); }
   /** Moves every staged file into the directory (replacing older files of the same name). */
   void Commit();
 

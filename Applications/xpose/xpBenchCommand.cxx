@@ -1,0 +1,161 @@
+#include "xpCommands.h"
+#include "xpDRRSetup.h"
+
+#include "xpAttenuationVolume.h"
+#include "xpError.h"
+#include "xpPose.h"
+#include "xpRayCaster.h"
+
+#include <vtkDataArray.h>
+#include <vtkImageData.h>
+#include <vtkMatrix4x4.h>
+#include <vtkPointData.h>
+#include <vtkSMPTools.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <thread>
+#include <vector>
+
+namespace xp
+{
+
+namespace
+{
+
+using Clock = std::chrono::steady_clock;
+
+struct Scene
+{
+  AttenuationVolume volume;
+  Eigen::Isometry3d ctToRoom;
+  std::vector<XRayView> views;
+};
+
+/** Median seconds to render every view once (all views together), over `repetitions` runs. */
+double TimeViews(const Scene& scene, int columns, int rows, const std::vector<std::vector<uint8_t>>* masks,
+  RayCastMethod method, int repetitions, long long& rays)
+{
+  std::vector<double> times;
+  std::vector<float> buffer(static_cast<size_t>(columns) * rows);
+  RayCastSettings settings;
+  settings.method = method;
+  for (int r = 0; r < repetitions; ++r)
+  {
+    rays = 0;
+    const Clock::time_point start = Clock::now();
+    for (size_t v = 0; v < scene.views.size(); ++v)
+    {
+      const XRayView view = scene.views[v].Resampled(columns, rows);
+      rays += RenderLineIntegrals(scene.volume, scene.ctToRoom, view.source, DetectorGrid::TopRowFirst(view),
+        masks ? (*masks)[v].data() : nullptr, buffer.data(), settings);
+    }
+    times.push_back(std::chrono::duration<double>(Clock::now() - start).count());
+  }
+  std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
+  return times[times.size() / 2];
+}
+
+/** Tiles of 16x16 pixels kept with probability `fraction` (a fixed hash): a mask with the
+ *  blocky, spatially coherent shape of an entropy mask. Returns the exact valid fraction. */
+double TileMask(int columns, int rows, double fraction, int seed, std::vector<uint8_t>& mask)
+{
+  mask.assign(static_cast<size_t>(columns) * rows, 0);
+  long long valid = 0;
+  for (int r = 0; r < rows; ++r)
+  {
+    for (int c = 0; c < columns; ++c)
+    {
+      unsigned h = static_cast<unsigned>((c / 16) * 73856093u ^ (r / 16) * 19349663u ^ seed * 83492791u);
+      h ^= h >> 13;
+      h *= 0x5bd1e995u;
+      h ^= h >> 15;
+      const bool keep = (h % 10000u) < fraction * 10000.0;
+      mask[static_cast<size_t>(r) * columns + c] = keep;
+      valid += keep;
+    }
+  }
+  return static_cast<double>(valid) / mask.size();
+}
+
+} // namespace
+
+int RunBenchDRR(const BenchOptions& options)
+{
+  if (options.repetitions < 1)
+  {
+    throw InputError("--repetitions", "must be at least 1");
+  }
+  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.geometry, "", 0.0193, "trilinear", 0.0);
+  vtkImageData* ct = setup.ct.image;
+  int dims[3];
+  ct->GetDimensions(dims);
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      indexToCT.matrix()(r, c) = ct->GetIndexToPhysicalMatrix()->GetElement(r, c);
+
+  const Clock::time_point prepare = Clock::now();
+  Scene scene{ AttenuationVolume(static_cast<const float*>(ct->GetPointData()->GetScalars()->GetVoidPointer(0)),
+                 Eigen::Vector3i(dims[0], dims[1], dims[2]), indexToCT, 0.0193),
+    Eigen::Isometry3d::Identity(), setup.geometry.views };
+  const double prepareSeconds = std::chrono::duration<double>(Clock::now() - prepare).count();
+  double center[3];
+  ImageCenter(ct, center);
+  scene.ctToRoom = PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), Eigen::Vector3d(center),
+    setup.geometry.isocenter);
+
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::printf("xpose bench drr\nCT: %s, %d x %d x %d voxels; attenuation volume built in %.3f s, %.0f %% of 8^3 blocks "
+              "occupied\ngeometry: %s, %zu views; machine: %d hardware threads; median of %d runs\n\n",
+    options.ct.c_str(), dims[0], dims[1], dims[2], prepareSeconds, 100.0 * scene.volume.OccupiedFraction(),
+    options.geometry.c_str(), scene.views.size(), cores, options.repetitions);
+
+  std::printf("Unmasked rendering, all views per run\n%-10s %-9s %-7s %10s %12s %14s %10s\n", "method", "size", "threads",
+    "rays", "time (s)", "M rays/s", "speed-up");
+  std::vector<int> threadCounts{ 1 };
+  if (cores > 1)
+    threadCounts.push_back(cores);
+  for (RayCastMethod method : { RayCastMethod::Trilinear, RayCastMethod::Siddon })
+  {
+    for (const std::string& text : options.sizes)
+    {
+      const auto [columns, rows] = ParseSize(text, "--sizes");
+      double single = 0.0;
+      for (int threads : threadCounts)
+      {
+        vtkSMPTools::Initialize(threads);
+        long long rays = 0;
+        const double seconds = TimeViews(scene, columns, rows, nullptr, method, options.repetitions, rays);
+        if (threads == 1)
+          single = seconds;
+        std::printf("%-10s %-9s %-7d %10lld %12.4f %14.2f %9.2fx\n",
+          method == RayCastMethod::Siddon ? "siddon" : "trilinear", text.c_str(), threads, rays, seconds,
+          rays / seconds / 1e6, single / seconds);
+      }
+    }
+  }
+
+  vtkSMPTools::Initialize(cores);
+  const auto [columns, rows] = ParseSize(options.maskSize, "--mask-size");
+  long long fullRays = 0;
+  const double full = TimeViews(scene, columns, rows, nullptr, RayCastMethod::Trilinear, options.repetitions, fullRays);
+  std::printf("\nMasked rendering (trilinear, %s, %d threads): time should track the valid fraction\n"
+              "%-14s %12s %12s %14s %16s\n",
+    options.maskSize.c_str(), cores, "valid (%)", "rays", "time (s)", "M rays/s", "time / unmasked");
+  std::printf("%-14.1f %12lld %12.4f %14.2f %16.3f\n", 100.0, fullRays, full, fullRays / full / 1e6, 1.0);
+  for (double fraction : options.validFractions)
+  {
+    std::vector<std::vector<uint8_t>> masks(scene.views.size());
+    double valid = 0.0;
+    for (size_t v = 0; v < masks.size(); ++v)
+      valid += TileMask(columns, rows, fraction, static_cast<int>(v) + 1, masks[v]) / masks.size();
+    long long rays = 0;
+    const double seconds = TimeViews(scene, columns, rows, &masks, RayCastMethod::Trilinear, options.repetitions, rays);
+    std::printf("%-14.1f %12lld %12.4f %14.2f %16.3f\n", 100.0 * valid, rays, seconds, rays / seconds / 1e6, seconds / full);
+  }
+  return ExitOk;
+}
+
+} // namespace xp

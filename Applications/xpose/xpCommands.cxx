@@ -1,0 +1,88 @@
+#include "xpCommands.h"
+
+#include "xpDICOMSeriesWriter.h"
+#include "xpError.h"
+#include "xpHeadPhantom.h"
+#include "xpImageIO.h"
+
+#include <vtkSMPTools.h>
+
+#include <chrono>
+#include <cstdio>
+#include <dirent.h>
+#include <iostream>
+
+namespace xp
+{
+
+int GuardedRun(const std::string& command, const std::function<int()>& body)
+{
+  try
+  {
+    return body();
+  }
+  catch (const InputError& e)
+  {
+    std::cerr << "xpose " << command << ": error: " << e.what() << std::endl;
+    return ExitBadInput;
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << "xpose " << command << ": failed: " << e.what() << std::endl;
+    return ExitFailure;
+  }
+}
+
+std::pair<int, int> ParseSize(const std::string& text, const std::string& field)
+{
+  int columns = 0, rows = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &columns, &x, &rows, &extra) != 3 || (x != 'x' && x != 'X') ||
+    columns < 1 || rows < 1 || columns > 16384 || rows > 16384)
+  {
+    throw InputError(field, "expected COLSxROWS such as 512x384, got '" + text + "'");
+  }
+  return { columns, rows };
+}
+
+void UseThreads(int threads)
+{
+  if (threads < 0)
+  {
+    throw InputError("--threads", "must be 0 (all cores) or more");
+  }
+  vtkSMPTools::Initialize(threads);
+}
+
+int RunPhantom(const PhantomOptions& options)
+{
+  if (DIR* existing = opendir(options.outputDirectory.c_str()))
+  {
+    int entries = 0;
+    while (dirent* entry = readdir(existing))
+    {
+      entries += entry->d_name[0] != '.';
+    }
+    closedir(existing);
+    if (entries > 0)
+    {
+      throw InputError(options.outputDirectory, "output folder is not empty; a CT series needs a folder of its own");
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const CTVolumeData phantom = MakeHeadPhantom(options.spacing);
+  StagedOutputDirectory out(options.outputDirectory);
+  CTSeriesWriteOptions write;
+  write.seriesDescription = "xpose head phantom";
+  for (const std::string& path : WriteCTSeries(phantom, out.StagingFolder(), write))
+  {
+    out.Track(path.substr(path.find_last_of('/') + 1));
+  }
+  out.Commit();
+  std::printf("head phantom: %d x %d x %d voxels of %.2f mm, HFS, written to %s in %.2f s\n", phantom.dimensions[0],
+    phantom.dimensions[1], phantom.dimensions[2], options.spacing, options.outputDirectory.c_str(),
+    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return ExitOk;
+}
+
+} // namespace xp

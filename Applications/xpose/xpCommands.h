@@ -1,0 +1,75 @@
+/**
+ * @file xpCommands.h
+ * @brief The subcommands of `xpose`, as functions that return the process exit code.
+ *
+ * Exit codes: 0 success, 1 internal failure, 2 bad input (a file, a field or an option).
+ * Every command writes its files into a staging folder and moves them into place only when all
+ * of them are complete.
+ */
+#ifndef xpCommands_h
+#define xpCommands_h
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace xp
+{
+
+enum ExitCode
+{
+  ExitOk = 0,
+  ExitFailure = 1,
+  ExitBadInput = 2
+};
+
+struct PhantomOptions
+{
+  std::string outputDirectory;
+  double spacing = 1.0; ///< mm, isotropic
+};
+
+struct DRROptions
+{
+  std::string ct;             ///< DICOM folder, .mha/.mhd or .nii/.nii.gz
+  std::string series;         ///< Series Instance UID when the folder holds several
+  std::string geometry;       ///< geometry JSON (GEOMETRY.md)
+  std::string size;           ///< "COLSxROWS"; empty = the panel's own size
+  std::string pose = "0,0,0,0,0,0";
+  std::string isocenterInCT;  ///< "x,y,z" LPS mm; empty = CT centre
+  std::string maskDirectory;  ///< holds mask_NAME.png per imager (non-zero = render)
+  std::string method = "trilinear";
+  double stepSize = 0.0;      ///< mm; 0 = smallest voxel spacing
+  double muWater = 0.0193;    ///< 1/mm
+  int threads = 0;            ///< 0 = all cores
+  std::string outputDirectory;
+};
+
+struct BenchOptions
+{
+  std::string ct;
+  std::string series;
+  std::string geometry;
+  std::vector<std::string> sizes{ "256x192", "512x384", "1024x768" };
+  std::string maskSize = "1024x768";
+  std::vector<double> validFractions{ 0.10, 0.25, 0.50 };
+  int repetitions = 3;
+};
+
+/** Runs `body`, turning xp::InputError into exit code 2 and other exceptions into 1, with one
+ *  line on stderr: "xpose <command>: error: <message>". */
+int GuardedRun(const std::string& command, const std::function<int()>& body);
+
+int RunPhantom(const PhantomOptions& options);
+int RunDRR(const DRROptions& options);
+int RunBenchDRR(const BenchOptions& options);
+
+/** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
+std::pair<int, int> ParseSize(const std::string& text, const std::string& field);
+
+/** Sets the number of threads used by every parallel kernel (0 = all cores). */
+void UseThreads(int threads);
+
+} // namespace xp
+
+#endif

@@ -1,0 +1,156 @@
+#include "xpCommands.h"
+#include "xpDRRSetup.h"
+
+#include "xpError.h"
+#include "xpImageIO.h"
+#include "xpPose.h"
+
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace xp
+{
+
+namespace
+{
+
+Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field)
+{
+  Eigen::Vector3d p;
+  char c1 = 0, c2 = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf%c", &p[0], &c1, &p[1], &c2, &p[2], &extra) != 5 || c1 != ',' ||
+    c2 != ',' || !p.allFinite())
+  {
+    throw InputError(field, "expected x,y,z in mm, got '" + text + "'");
+  }
+  return p;
+}
+
+/** exp(-integral) as float, 0 where not traced, on the filter's grid. */
+vtkSmartPointer<vtkImageData> Transmission(vtkImageData* lineIntegral, vtkImageData* valid)
+{
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->CopyStructure(lineIntegral);
+  image->AllocateScalars(VTK_FLOAT, 1);
+  const float* in = static_cast<const float*>(lineIntegral->GetScalarPointer());
+  const uint8_t* ok = static_cast<const uint8_t*>(valid->GetScalarPointer());
+  float* out = static_cast<float*>(image->GetScalarPointer());
+  for (vtkIdType i = 0; i < image->GetNumberOfPoints(); ++i)
+  {
+    out[i] = ok[i] ? std::exp(-in[i]) : 0.0f;
+  }
+  return image;
+}
+
+} // namespace
+
+DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& geometryPath,
+  const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize)
+{
+  if (method != "trilinear" && method != "siddon")
+  {
+    throw InputError("--method", "expected trilinear or siddon, got '" + method + "'");
+  }
+  if (!(muWater > 0.0 && muWater < 1.0))
+  {
+    throw InputError("--mu-water", "must be between 0 and 1 per mm");
+  }
+  if (stepSize < 0.0)
+  {
+    throw InputError("--step", "must be positive (0 = smallest voxel spacing)");
+  }
+  DRRSetup setup;
+  setup.geometry = ReadStereoGeometry(geometryPath); // geometry first: cheap to check
+  setup.ct = ReadCTVolume(ctPath, series);
+  setup.filter = vtkSmartPointer<vtkXPDRRFilter>::New();
+  setup.filter->SetInputData(setup.ct.image);
+  setup.filter->SetPatientPosition(ParsePatientPosition(setup.ct.patientPosition, ctPath));
+  setup.filter->SetRoomIsocenter(setup.geometry.isocenter.data());
+  if (!isocenterInCT.empty())
+  {
+    setup.filter->SetIsocenterInCT(ParsePoint(isocenterInCT, "--iso-ct").data());
+    setup.filter->UseCTCenterAsIsocenterOff();
+  }
+  setup.filter->SetMuWater(muWater);
+  setup.filter->SetMethod(method == "siddon" ? 1 : 0);
+  setup.filter->SetStepSize(stepSize);
+  return setup;
+}
+
+int RunDRR(const DRROptions& options)
+{
+  UseThreads(options.threads);
+  const Pose pose = Pose::Parse(options.pose, "--pose");
+  std::pair<int, int> size{ 0, 0 };
+  if (!options.size.empty())
+  {
+    size = ParseSize(options.size, "--size");
+  }
+  const auto readStart = std::chrono::steady_clock::now();
+  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.geometry, options.isocenterInCT, options.muWater,
+    options.method, options.stepSize);
+  const double readSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - readStart).count();
+  vtkXPDRRFilter* drr = setup.filter;
+  drr->SetMisalignment(pose);
+  drr->SetOutputSize(size.first, size.second);
+
+  // Masks are checked for every view before anything is rendered or written.
+  std::vector<vtkSmartPointer<vtkImageData>> masks;
+  for (const XRayView& view : setup.geometry.views)
+  {
+    if (options.maskDirectory.empty())
+    {
+      masks.emplace_back();
+      continue;
+    }
+    const XRayView out = size.first > 0 ? view.Resampled(size.first, size.second) : view;
+    const std::string path = options.maskDirectory + "/mask_" + view.name + ".png";
+    struct stat status;
+    if (stat(path.c_str(), &status) != 0)
+    {
+      throw InputError(path, "no mask for imager " + view.name + " (expected mask_NAME.png in --mask-dir)");
+    }
+    masks.push_back(ReadMaskPNG(path, out.Columns(), out.Rows()));
+  }
+
+  std::printf("CT %s: %s, patient position %s; read in %.2f s\n", options.ct.c_str(),
+    setup.ct.description.empty() ? "volume" : setup.ct.description.c_str(), setup.ct.patientPosition.c_str(), readSeconds);
+  std::printf("misalignment: %s\n", pose.ToString().c_str());
+  StagedOutputDirectory output(options.outputDirectory);
+  for (size_t v = 0; v < setup.geometry.views.size(); ++v)
+  {
+    const XRayView& view = setup.geometry.views[v];
+    drr->SetView(view);
+    drr->SetInputData(1, masks[v]);
+    drr->Update();
+    if (drr->GetOutput(0)->GetNumberOfPoints() == 0)
+    {
+      throw Error("view " + view.name, "DRR rendering failed");
+    }
+    const XRayView rendered = drr->GetOutputView();
+    WritePNG(drr->GetOutput(0), output.Path("drr_" + view.name + ".png"));
+    WriteDetectorMetaImage(Transmission(drr->GetOutput(1), drr->GetOutput(2)), rendered,
+      output.Path("drr_" + view.name + ".mha"));
+    const double seconds = drr->GetLastRenderSeconds();
+    if (drr->GetLastPreparationSeconds() > 0.0)
+    {
+      std::printf("attenuation volume prepared in %.3f s\n", drr->GetLastPreparationSeconds());
+    }
+    std::printf("view %s: %dx%d, %lld rays in %.3f s (%.2f M rays/s)\n", view.name.c_str(), rendered.Columns(),
+      rendered.Rows(), drr->GetNumberOfTracedRays(), seconds, drr->GetNumberOfTracedRays() / seconds / 1e6);
+  }
+  output.Commit();
+  std::printf("wrote drr_NAME.png (16-bit, 0..4095) and drr_NAME.mha (float transmission) to %s\n",
+    options.outputDirectory.c_str());
+  return ExitOk;
+}
+
+} // namespace xp

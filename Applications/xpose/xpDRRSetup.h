@@ -1,0 +1,32 @@
+// Shared set-up of the DRR filter for the `drr` and `bench` subcommands (internal header).
+#ifndef xpDRRSetup_h
+#define xpDRRSetup_h
+
+#include "vtkXPDRRFilter.h"
+#include "xpStereoGeometry.h"
+#include "xpVolumeIO.h"
+
+#include <vtkSmartPointer.h>
+
+#include <string>
+
+namespace xp
+{
+
+struct DRRSetup
+{
+  CTVolume ct;
+  StereoGeometry geometry;
+  vtkSmartPointer<vtkXPDRRFilter> filter;
+};
+
+/**
+ * Reads the geometry and the CT and configures one DRR filter (view set later per imager).
+ * `isocenterInCT` is "x,y,z" in LPS mm or empty for the CT centre; `method` trilinear|siddon.
+ */
+DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& geometryPath,
+  const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize);
+
+} // namespace xp
+
+#endif

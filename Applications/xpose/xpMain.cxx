@@ -1,0 +1,52 @@
+// xpose: stereo X-ray 2D/3D registration. main() only parses; the work is in xpCommands.
+#include "xpCommands.h"
+
+#include <CLI/CLI.hpp>
+
+int main(int argc, char** argv)
+{
+  CLI::App app{ "xpose: 6-DOF patient pose from two stereoscopic X-ray images and the planning CT" };
+  app.require_subcommand(1);
+
+  xp::PhantomOptions phantom;
+  CLI::App* phantomCommand = app.add_subcommand("phantom", "Write the built-in head phantom as a DICOM CT series");
+  phantomCommand->add_option("--out", phantom.outputDirectory, "Output folder (new or empty)")->required();
+  phantomCommand->add_option("--spacing", phantom.spacing, "Voxel size in mm")->capture_default_str();
+
+  xp::DRROptions drr;
+  CLI::App* drrCommand = app.add_subcommand("drr", "Render a DRR per imager of the geometry");
+  drrCommand->add_option("--ct", drr.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  drrCommand->add_option("--series", drr.series, "Series Instance UID when the folder holds several");
+  drrCommand->add_option("--geometry", drr.geometry, "Stereo geometry JSON (GEOMETRY.md)")->required();
+  drrCommand->add_option("--size", drr.size, "Output COLSxROWS on the same panel (default: the panel's)");
+  drrCommand->add_option("--pose", drr.pose, "Patient misalignment tx,ty,tz,pitch,roll,yaw (mm, degrees, room)")
+    ->capture_default_str();
+  drrCommand->add_option("--iso-ct", drr.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre (default: CT centre)");
+  drrCommand->add_option("--mask-dir", drr.maskDirectory, "Folder with mask_NAME.png per imager (non-zero = render)");
+  drrCommand->add_option("--method", drr.method, "trilinear or siddon")->capture_default_str();
+  drrCommand->add_option("--step", drr.stepSize, "Trilinear sampling step in mm (0: smallest voxel spacing)")
+    ->capture_default_str();
+  drrCommand->add_option("--mu-water", drr.muWater, "Attenuation of water, 1/mm")->capture_default_str();
+  drrCommand->add_option("--threads", drr.threads, "Threads (0: all cores)")->capture_default_str();
+  drrCommand->add_option("--out-dir", drr.outputDirectory, "Output folder")->required();
+
+  xp::BenchOptions bench;
+  CLI::App* benchCommand = app.add_subcommand("bench", "Measure and print performance figures");
+  benchCommand->require_subcommand(1);
+  CLI::App* benchDRR = benchCommand->add_subcommand("drr", "DRR rays per second: sizes, threads, masks");
+  benchDRR->add_option("--ct", bench.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  benchDRR->add_option("--series", bench.series, "Series Instance UID when the folder holds several");
+  benchDRR->add_option("--geometry", bench.geometry, "Stereo geometry JSON")->required();
+  benchDRR->add_option("--sizes", bench.sizes, "Output sizes COLSxROWS")->capture_default_str();
+  benchDRR->add_option("--mask-size", bench.maskSize, "Size for the masked runs")->capture_default_str();
+  benchDRR->add_option("--valid", bench.validFractions, "Valid fractions for the masked runs")->capture_default_str();
+  benchDRR->add_option("--repetitions", bench.repetitions, "Runs per figure (the median is printed)")
+    ->capture_default_str();
+
+  CLI11_PARSE(app, argc, argv);
+  if (phantomCommand->parsed())
+    return xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); });
+  if (drrCommand->parsed())
+    return xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); });
+  return xp::GuardedRun("bench drr", [&] { return xp::RunBenchDRR(bench); });
+}
