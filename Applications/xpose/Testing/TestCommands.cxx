@@ -1,0 +1,194 @@
+// The subcommands end to end: phantom -> DICOM -> DRR files, exit codes, nothing half-written.
+#include "xpCommands.h"
+
+#include <dirent.h>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <vtkDataArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPNGReader.h>
+#include <vtkPNGWriter.h>
+#include <vtkPointData.h>
+
+namespace
+{
+
+const std::string Geometry = std::string(XP_SOURCE_DIR) + "/Data/geometry/stereo-oblique-90.json";
+const std::string SharedPelvis = std::string(XP_SHARED_DATA_DIR) + "/ct/vhm-pelvis";
+
+int CountFiles(const std::string& dir)
+{
+  int n = 0;
+  if (DIR* d = opendir(dir.c_str()))
+  {
+    while (dirent* e = readdir(d))
+      n += e->d_name[0] != '.' || std::string(e->d_name).rfind(".xpose-partial", 0) == 0;
+    closedir(d);
+  }
+  return n;
+}
+
+bool Exists(const std::string& path)
+{
+  struct stat s;
+  return stat(path.c_str(), &s) == 0;
+}
+
+/** One coarse phantom CT shared by the tests of this file. */
+const std::string& PhantomCT()
+{
+  static const std::string dir = []
+  {
+    EXPECT_EQ(std::system("rm -rf cmd-phantom"), 0);
+    xp::PhantomOptions options;
+    options.outputDirectory = "cmd-phantom";
+    options.spacing = 3.0;
+    EXPECT_EQ(xp::GuardedRun("phantom", [&] { return xp::RunPhantom(options); }), xp::ExitOk);
+    return options.outputDirectory;
+  }();
+  return dir;
+}
+
+xp::DRROptions SmallDRR(const std::string& out)
+{
+  EXPECT_EQ(std::system(("rm -rf " + out).c_str()), 0);
+  xp::DRROptions options;
+  options.ct = PhantomCT();
+  options.geometry = Geometry;
+  options.size = "128x96";
+  options.outputDirectory = out;
+  return options;
+}
+
+void WriteMask(const std::string& path, int columns, int rows, int validColumns)
+{
+  vtkNew<vtkImageData> mask;
+  mask->SetDimensions(columns, rows, 1);
+  mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  auto* m = static_cast<unsigned char*>(mask->GetScalarPointer());
+  for (int i = 0; i < columns * rows; ++i)
+    m[i] = (i % columns) < validColumns ? 255 : 0;
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetInputData(mask);
+  writer->SetFileName(path.c_str());
+  writer->Write();
+}
+
+} // namespace
+
+TEST(Commands, PhantomThenDRRWritesBothViews)
+{
+  xp::DRROptions options = SmallDRR("cmd-drr");
+  options.pose = "5,0,0,0,0,2";
+  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(options); }), xp::ExitOk);
+  for (const char* name : { "A", "B" })
+  {
+    const std::string png = "cmd-drr/drr_" + std::string(name) + ".png";
+    ASSERT_TRUE(Exists(png)) << png;
+    ASSERT_TRUE(Exists("cmd-drr/drr_" + std::string(name) + ".mha"));
+    vtkNew<vtkPNGReader> reader;
+    reader->SetFileName(png.c_str());
+    reader->Update();
+    vtkImageData* image = reader->GetOutput();
+    EXPECT_EQ(image->GetScalarType(), VTK_UNSIGNED_SHORT);
+    EXPECT_EQ(image->GetDimensions()[0], 128);
+    double range[2];
+    image->GetPointData()->GetScalars()->GetRange(range);
+    EXPECT_LE(range[1], 4095.0) << "12-bit values";
+    EXPECT_LT(range[0], 1500.0) << "bone and the head rest attenuate";
+    EXPECT_GT(range[1], 4000.0) << "air around the head transmits";
+  }
+  EXPECT_EQ(CountFiles("cmd-drr"), 4) << "no staging folder left behind";
+}
+
+TEST(Commands, MaskedDRRMatchesUnmaskedWhereValid)
+{
+  xp::DRROptions full = SmallDRR("cmd-full");
+  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(full); }), xp::ExitOk);
+  ASSERT_EQ(std::system("rm -rf cmd-masks && mkdir cmd-masks"), 0);
+  WriteMask("cmd-masks/mask_A.png", 128, 96, 40);
+  WriteMask("cmd-masks/mask_B.png", 128, 96, 128);
+  xp::DRROptions masked = SmallDRR("cmd-masked");
+  masked.maskDirectory = "cmd-masks";
+  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(masked); }), xp::ExitOk);
+  vtkNew<vtkPNGReader> a, b;
+  a->SetFileName("cmd-full/drr_A.png");
+  b->SetFileName("cmd-masked/drr_A.png");
+  a->Update();
+  b->Update();
+  const auto* pa = static_cast<const unsigned short*>(a->GetOutput()->GetScalarPointer());
+  const auto* pb = static_cast<const unsigned short*>(b->GetOutput()->GetScalarPointer());
+  for (int i = 0; i < 128 * 96; ++i)
+  {
+    ASSERT_EQ(pb[i], (i % 128) < 40 ? pa[i] : 0) << "pixel " << i;
+  }
+}
+
+TEST(Commands, BadInputExitsWithTwoAndWritesNothing)
+{
+  // Inconsistent geometry file.
+  std::ofstream("cmd-bad-geometry.json") << "{ \"imagers\": [ { \"name\": \"A\", \"source\": [0, 0, -1000], "
+                                            "\"detector\": { \"center\": [0, 0, 500], \"row_direction\": [1, 0, 0], "
+                                            "\"column_direction\": [1, 0, 0], \"pixel_spacing\": [1, 1], \"size\": [10, 10] } } ] }";
+  xp::DRROptions options = SmallDRR("cmd-bad1");
+  options.geometry = "cmd-bad-geometry.json";
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(options); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-bad1"));
+
+  // A mask of the wrong size for view B: view A must not be written either.
+  ASSERT_EQ(std::system("rm -rf cmd-bad-masks && mkdir cmd-bad-masks"), 0);
+  WriteMask("cmd-bad-masks/mask_A.png", 128, 96, 50);
+  WriteMask("cmd-bad-masks/mask_B.png", 64, 48, 50);
+  options = SmallDRR("cmd-bad2");
+  options.maskDirectory = "cmd-bad-masks";
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(options); }), xp::ExitBadInput);
+  EXPECT_EQ(CountFiles("cmd-bad2"), 0);
+
+  // An empty mask.
+  WriteMask("cmd-bad-masks/mask_B.png", 128, 96, 0);
+  options = SmallDRR("cmd-bad3");
+  options.maskDirectory = "cmd-bad-masks";
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(options); }), xp::ExitBadInput);
+  EXPECT_EQ(CountFiles("cmd-bad3"), 0);
+
+  for (auto [field, value] : { std::pair<std::string, std::string>{ "pose", "1,2,3" }, { "size", "12x" },
+         { "method", "joseph" }, { "ct", "cmd-no-such-ct" } })
+  {
+    options = SmallDRR("cmd-bad4");
+    if (field == "pose")
+      options.pose = value;
+    if (field == "size")
+      options.size = value;
+    if (field == "method")
+      options.method = value;
+    if (field == "ct")
+      options.ct = value;
+    EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(options); }), xp::ExitBadInput) << field;
+    EXPECT_EQ(CountFiles("cmd-bad4"), 0) << field;
+  }
+
+  xp::PhantomOptions phantom;
+  phantom.outputDirectory = PhantomCT(); // not empty
+  EXPECT_EQ(xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); }), xp::ExitBadInput);
+}
+
+TEST(Commands, RealPelvisCT)
+{
+  if (!Exists(SharedPelvis))
+  {
+    GTEST_SKIP() << "shared pelvis CT not found at " << SharedPelvis << " (../shared/data beside the project)";
+  }
+  xp::DRROptions options = SmallDRR("cmd-pelvis");
+  options.ct = SharedPelvis;
+  options.size = "256x192";
+  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(options); }), xp::ExitOk);
+  vtkNew<vtkPNGReader> reader;
+  reader->SetFileName("cmd-pelvis/drr_A.png");
+  reader->Update();
+  double range[2];
+  reader->GetOutput()->GetPointData()->GetScalars()->GetRange(range);
+  EXPECT_LT(range[0], 300.0) << "the pelvis attenuates strongly along oblique rays";
+  EXPECT_EQ(range[1], 4095.0) << "rows beyond the 140 mm of CT see no attenuation";
+}
