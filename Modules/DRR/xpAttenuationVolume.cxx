@@ -5,9 +5,33 @@
 #include <vtkSMPTools.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <sys/mman.h>
 
 namespace xp
 {
+
+namespace
+{
+
+/** Zeroed float storage aligned to 2 MiB and marked for transparent huge pages: a ray touches
+ *  voxels far apart in memory, and 4 KiB pages would cost a TLB miss on most samples. */
+std::shared_ptr<float> AllocateVoxels(size_t count)
+{
+  constexpr size_t HugePage = size_t(2) << 20;
+  const size_t bytes = (count * sizeof(float) + HugePage - 1) / HugePage * HugePage;
+  void* memory = nullptr;
+  if (posix_memalign(&memory, HugePage, bytes) != 0)
+  {
+    throw Error("attenuation volume: out of memory (" + std::to_string(bytes >> 20) + " MiB)");
+  }
+  madvise(memory, bytes, MADV_HUGEPAGE);
+  std::memset(memory, 0, bytes);
+  return std::shared_ptr<float>(static_cast<float*>(memory), [](float* p) { std::free(p); });
+}
+
+} // namespace
 
 AttenuationVolume::AttenuationVolume(
   const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater,
@@ -20,6 +44,10 @@ AttenuationVolume::AttenuationVolume(
   {
     throw Error("attenuation volume: empty CT");
   }
+  if (this->Padded.cast<double>().prod() >= 2147483647.0)
+  {
+    throw Error("attenuation volume: more than 2^31 voxels are not supported");
+  }
   if (!(muWater > 0.0))
   {
     throw InputError("mu_water", "must be positive");
@@ -27,7 +55,7 @@ AttenuationVolume::AttenuationVolume(
   this->PaddedToCT = indexToCT * Eigen::Translation3d(-1.0, -1.0, -1.0);
   this->MinSpacing = indexToCT.linear().colwise().norm().minCoeff();
   const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
-  this->Mu.assign(nxy * this->Padded[2], 0.0f);
+  this->Mu = AllocateVoxels(nxy * this->Padded[2]);
   // mu = muWater (1 + HU/1000) = scale (HU + 1000): exactly 0 for air, so empty blocks are
   // found; voxels below airThreshold (noise in the air around the patient) count as air.
   const float scale = static_cast<float>(muWater / 1000.0);
@@ -40,7 +68,7 @@ AttenuationVolume::AttenuationVolume(
         for (int j = 0; j < dims[1]; ++j)
         {
           const float* in = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
-          float* out = this->Mu.data() + (k + 1) * nxy + (j + 1) * nx + 1;
+          float* out = this->Mu.get() + (k + 1) * nxy + (j + 1) * nx + 1;
           for (int i = 0; i < dims[0]; ++i)
           {
             out[i] = in[i] < air ? 0.0f : scale * std::max(0.0f, in[i] + 1000.0f);
@@ -69,7 +97,7 @@ AttenuationVolume::AttenuationVolume(
             for (int z = bz * b; z < z1 && !any; ++z)
               for (int y = by * b; y < y1 && !any; ++y)
                 for (int x = bx * b; x < x1 && !any; ++x)
-                  any = this->Mu[z * nxy + y * nx + x] > 0.0f;
+                  any = this->Mu.get()[z * nxy + y * nx + x] > 0.0f;
             this->Occupied[(static_cast<size_t>(bz) * this->Blocks[1] + by) * this->Blocks[0] + bx] = any;
           }
         }
@@ -79,7 +107,7 @@ AttenuationVolume::AttenuationVolume(
 
 float AttenuationVolume::At(int i, int j, int k) const
 {
-  return this->Mu[(static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1)];
+  return this->Mu.get()[(static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1)];
 }
 
 double AttenuationVolume::OccupiedFraction() const

@@ -15,6 +15,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace xp
@@ -42,7 +43,7 @@ public:
   const Eigen::Vector3i& PaddedDimensions() const { return this->Padded; }
   /** Padded voxel index (original index + 1) -> CT mm. */
   const Eigen::Affine3d& PaddedIndexToCT() const { return this->PaddedToCT; }
-  const float* Voxels() const { return this->Mu.data(); }
+  const float* Voxels() const { return this->Mu.get(); }
   /** mu of original voxel (i, j, k). */
   float At(int i, int j, int k) const;
 
@@ -62,7 +63,8 @@ private:
   Eigen::Vector3i Padded = Eigen::Vector3i::Zero();
   Eigen::Vector3i Blocks = Eigen::Vector3i::Zero();
   Eigen::Affine3d PaddedToCT = Eigen::Affine3d::Identity();
-  std::vector<float> Mu;
+  /** Padded voxels, on 2 MiB huge pages where the kernel allows (rays jump between slices). */
+  std::shared_ptr<float> Mu;
   std::vector<uint8_t> Occupied;
   double MinSpacing = 1.0;
   double Water = 0.0;

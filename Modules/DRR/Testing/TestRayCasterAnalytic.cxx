@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <vector>
 
@@ -15,8 +16,9 @@ namespace
 
 constexpr double MuWater = 0.02;
 
-/** A cubic volume of n^3 voxels of 1 mm centred on the origin, HU from a function of position. */
-xp::AttenuationVolume MakeVolume(int n, const std::function<double(const Eigen::Vector3d&)>& fractionInside)
+/** A cubic volume of n^3 voxels of `spacing` mm centred on the origin, HU from a function of position. */
+xp::AttenuationVolume MakeVolume(
+  int n, const std::function<double(const Eigen::Vector3d&)>& fractionInside, double spacing = 1.0)
 {
   std::vector<float> hu(static_cast<size_t>(n) * n * n);
   const double c = 0.5 * (n - 1);
@@ -24,23 +26,24 @@ xp::AttenuationVolume MakeVolume(int n, const std::function<double(const Eigen::
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i)
         hu[(static_cast<size_t>(k) * n + j) * n + i] =
-          static_cast<float>(-1000.0 + 1000.0 * fractionInside(Eigen::Vector3d(i - c, j - c, k - c)));
+          static_cast<float>(-1000.0 + 1000.0 * fractionInside(spacing * Eigen::Vector3d(i - c, j - c, k - c)));
   Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
-  indexToCT.translation() = Eigen::Vector3d::Constant(-c);
+  indexToCT.linear() *= spacing;
+  indexToCT.translation() = Eigen::Vector3d::Constant(-c * spacing);
   return xp::AttenuationVolume(hu.data(), Eigen::Vector3i(n, n, n), indexToCT, MuWater);
 }
 
-/** Fraction of a 1 mm voxel at `p` inside a sphere (partial volume, 8^3 samples at the surface). */
-double SphereFraction(const Eigen::Vector3d& p, double radius)
+/** Fraction of a voxel of `size` mm at `p` inside a sphere (partial volume, 8^3 samples at the surface). */
+double SphereFraction(const Eigen::Vector3d& p, double radius, double size)
 {
   const double distance = p.norm();
-  if (std::abs(distance - radius) > 0.9)
+  if (std::abs(distance - radius) > 0.9 * size)
     return distance < radius ? 1.0 : 0.0;
   int inside = 0;
   for (int a = 0; a < 8; ++a)
     for (int b = 0; b < 8; ++b)
       for (int c = 0; c < 8; ++c)
-        inside += (p + Eigen::Vector3d(a - 3.5, b - 3.5, c - 3.5) / 8.0).norm() <= radius;
+        inside += (p + size * Eigen::Vector3d(a - 3.5, b - 3.5, c - 3.5) / 8.0).norm() <= radius;
   return inside / 512.0;
 }
 
@@ -151,13 +154,27 @@ TEST(RayCasterAnalytic, BoxSiddonIsExact)
 TEST(RayCasterAnalytic, SphereChordLength)
 {
   const double radius = 30.0;
-  const xp::AttenuationVolume volume = MakeVolume(72, [&](const Eigen::Vector3d& p) { return SphereFraction(p, radius); });
+  // 0.5 mm voxels: at 1 mm the voxelised sphere itself differs from the sphere by 0.13 %.
+  const xp::AttenuationVolume volume =
+    MakeVolume(136, [&](const Eigen::Vector3d& p) { return SphereFraction(p, radius, 0.5); }, 0.5);
   const xp::DetectorGrid grid = Panel(1.5);
-  for (xp::RayCastMethod method : { xp::RayCastMethod::Trilinear, xp::RayCastMethod::Siddon })
+  struct Case
+  {
+    const char* name;
+    xp::RayCastMethod method;
+    double step;
+    double tolerance;
+  };
+  // Siddon integrates nearest-neighbour voxels exactly, so the partial-volume voxels at the
+  // surface bias it; trilinear interpolation follows the smooth surface.
+  for (const Case& test : { Case{ "trilinear 0.25 mm", xp::RayCastMethod::Trilinear, 0.25, 1e-3 },
+         Case{ "trilinear per plane", xp::RayCastMethod::Trilinear, 0.0, 1e-3 },
+         Case{ "siddon", xp::RayCastMethod::Siddon, 0.0, 1e-2 } })
   {
     std::vector<float> integrals(grid.columns * grid.rows);
     xp::RayCastSettings settings;
-    settings.method = method;
+    settings.method = test.method;
+    settings.stepSize = test.step;
     xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, grid, nullptr, integrals.data(), settings);
     double worst = 0;
     int checked = 0;
@@ -175,10 +192,8 @@ TEST(RayCasterAnalytic, SphereChordLength)
       }
     }
     EXPECT_GT(checked, 100);
-    // Siddon integrates nearest-neighbour voxels exactly, so partial-volume voxels at the
-    // surface bias it (measured 0.9 %); trilinear follows the smooth surface to < 0.1 %.
-    EXPECT_LT(worst, method == xp::RayCastMethod::Siddon ? 1e-2 : 1e-3)
-      << (method == xp::RayCastMethod::Siddon ? "Siddon" : "Trilinear");
+    EXPECT_LT(worst, test.tolerance) << test.name;
+    std::printf("sphere, %s: worst relative error %.4f %% over %d rays\n", test.name, 100 * worst, checked);
   }
 }
 
