@@ -10,6 +10,7 @@
 #include <vtkNew.h>
 #include <vtkPointData.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -46,6 +47,40 @@ vtkSmartPointer<vtkImageData> Transmission(vtkImageData* lineIntegral, vtkImageD
   for (vtkIdType i = 0; i < image->GetNumberOfPoints(); ++i)
   {
     out[i] = ok[i] ? std::exp(-in[i]) : 0.0f;
+  }
+  return image;
+}
+
+/**
+ * 8-bit view of a DRR for people: the line integral (log of the transmission, as a radiograph is
+ * displayed) windowed to the 0.5 and 99.5 percentiles of the valid pixels; bone dark.
+ */
+vtkSmartPointer<vtkImageData> DisplayImage(vtkImageData* lineIntegral, vtkImageData* valid)
+{
+  const auto* in = static_cast<const float*>(lineIntegral->GetScalarPointer());
+  const auto* ok = static_cast<const uint8_t*>(valid->GetScalarPointer());
+  const vtkIdType n = lineIntegral->GetNumberOfPoints();
+  std::vector<float> values;
+  for (vtkIdType i = 0; i < n; ++i)
+  {
+    if (ok[i])
+      values.push_back(in[i]);
+  }
+  float low = 0.0f, high = 1.0f;
+  if (!values.empty())
+  {
+    std::sort(values.begin(), values.end());
+    low = values[values.size() / 200];
+    high = std::max(values[values.size() - 1 - values.size() / 200], low + 1e-6f);
+  }
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->CopyStructure(lineIntegral);
+  image->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  auto* out = static_cast<uint8_t*>(image->GetScalarPointer());
+  for (vtkIdType i = 0; i < n; ++i)
+  {
+    const double level = std::clamp((high - in[i]) / (high - low), 0.0f, 1.0f);
+    out[i] = ok[i] ? static_cast<uint8_t>(std::lround(255.0 * level)) : 0;
   }
   return image;
 }
@@ -137,10 +172,11 @@ int RunDRR(const DRROptions& options)
     }
     const XRayView rendered = drr->GetOutputView();
     WritePNG(drr->GetOutput(0), output.Path("drr_" + view.name + ".png"));
+    WritePNG(DisplayImage(drr->GetOutput(1), drr->GetOutput(2)), output.Path("drr_" + view.name + "_display.png"));
     WriteDetectorMetaImage(Transmission(drr->GetOutput(1), drr->GetOutput(2)), rendered,
       output.Path("drr_" + view.name + ".mha"));
     const double seconds = drr->GetLastRenderSeconds();
-    if (drr->GetLastPreparationSeconds() > 0.0)
+    if (v == 0)
     {
       std::printf("attenuation volume prepared in %.3f s\n", drr->GetLastPreparationSeconds());
     }
@@ -148,7 +184,8 @@ int RunDRR(const DRROptions& options)
       rendered.Rows(), drr->GetNumberOfTracedRays(), seconds, drr->GetNumberOfTracedRays() / seconds / 1e6);
   }
   output.Commit();
-  std::printf("wrote drr_NAME.png (16-bit, 0..4095) and drr_NAME.mha (float transmission) to %s\n",
+  std::printf("wrote drr_NAME.png (16-bit, 0..4095), drr_NAME_display.png (8-bit, log-windowed for viewing) and drr_NAME.mha "
+              "(float transmission) to %s\n",
     options.outputDirectory.c_str());
   return ExitOk;
 }

