@@ -113,6 +113,11 @@ void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std
 StagedOutputDirectory::StagedOutputDirectory(const std::string& directory)
   : Final(directory)
 {
+  // Create missing parents too (mkdir -p), so "--out demo/ct" works in a fresh checkout.
+  for (size_t slash = directory.find('/', 1); slash != std::string::npos; slash = directory.find('/', slash + 1))
+  {
+    mkdir(directory.substr(0, slash).c_str(), 0755);
+  }
   if (mkdir(directory.c_str(), 0755) != 0 && errno != EEXIST)
   {
     throw InputError(directory, std::string("cannot create the output folder: ") + std::strerror(errno));

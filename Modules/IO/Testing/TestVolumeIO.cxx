@@ -103,5 +103,11 @@ TEST(StagedOutputDirectory, NothingAppearsUnlessCommitted)
     out.Commit();
   }
   EXPECT_EQ(stat((dir + "/b.txt").c_str(), &status), 0);
-  EXPECT_EQ(std::system(("test $(ls -A '" + dir + "' | wc -l) -eq 1").c_str()), 0) << "staging folder left behind";
+  {
+    xp::StagedOutputDirectory nested(dir + "/new/deeper"); // parents are created
+    std::ofstream(nested.Path("c.txt")) << "c";
+    nested.Commit();
+  }
+  EXPECT_EQ(stat((dir + "/new/deeper/c.txt").c_str(), &status), 0);
+  EXPECT_EQ(std::system(("test $(ls -A '" + dir + "' | wc -l) -eq 2").c_str()), 0) << "staging folder left behind";
 }
