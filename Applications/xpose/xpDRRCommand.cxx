@@ -156,8 +156,10 @@ int RunDRR(const DRROptions& options)
     masks.push_back(ReadMaskPNG(path, out.Columns(), out.Rows()));
   }
 
-  std::printf("CT %s: %s, patient position %s; read in %.2f s\n", options.ct.c_str(),
-    setup.ct.description.empty() ? "volume" : setup.ct.description.c_str(), setup.ct.patientPosition.c_str(), readSeconds);
+  int dims[3];
+  setup.ct.image->GetDimensions(dims);
+  std::printf("CT %s: %d x %d x %d voxels, patient position %s; read in %.2f s\n", options.ct.c_str(), dims[0], dims[1],
+    dims[2], setup.ct.patientPosition.c_str(), readSeconds);
   std::printf("misalignment: %s\n", pose.ToString().c_str());
   StagedOutputDirectory output(options.outputDirectory);
   for (size_t v = 0; v < setup.geometry.views.size(); ++v)
