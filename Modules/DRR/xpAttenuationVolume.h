@@ -5,7 +5,7 @@
  * mu = muWater * (1 + HU/1000), clamped at 0; voxels below an air threshold (default -950 HU,
  * well below lung and fat but above the noise of air in real scans) are air, mu = 0. The voxels are
  * stored with one voxel of zeros around the volume, so trilinear sampling needs no bounds
- * checks, and an occupancy grid of 8x8x8 blocks marks where any attenuation is, so rays skip
+ * checks, and an occupancy grid of 32^3-voxel blocks marks where any attenuation is, so rays skip
  * empty space. Build it once per CT and reuse it for every pose.
  */
 #ifndef xpAttenuationVolume_h
@@ -24,7 +24,7 @@ namespace xp
 class VTKXPDRR_EXPORT AttenuationVolume
 {
 public:
-  static constexpr int BlockShift = 3; ///< occupancy blocks are 2^3 = 8 voxels wide
+  static constexpr int BlockShift = 5; ///< occupancy blocks are 2^5 = 32 voxels wide
 
   AttenuationVolume() = default;
 

@@ -171,15 +171,63 @@ __attribute__((target("avx2,fma"))) float SamplePlanesAVX2(const PlaneRun& r, in
   return total + SamplePlanesScalar(r, j, j1);
 }
 
+/**
+ * The same when axis b is x (strideB == 1): the two x-neighbours of a sample are adjacent, so one
+ * 64-bit gather element fetches both. Half the gathered elements of the AVX2 loop, and gathers
+ * cost per element.
+ */
+__attribute__((target("avx512f,avx512dq,avx512vl,fma"))) float SamplePlanesPairedAVX512(
+  const PlaneRun& r, int j0, int j1)
+{
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 zero = _mm256_setzero_ps(), upperB = _mm256_set1_ps(r.upperB), upperC = _mm256_set1_ps(r.upperC);
+  const __m256 b0 = _mm256_set1_ps(r.b0), db = _mm256_set1_ps(r.db), c0 = _mm256_set1_ps(r.c0), dc = _mm256_set1_ps(r.dc);
+  const __m256i strideA = _mm256_set1_epi32(r.strideA * r.sa), strideC = _mm256_set1_epi32(r.strideC),
+                planeBase = _mm256_set1_epi32(r.m0 * r.strideA);
+  const double* pairs = reinterpret_cast<const double*>(r.voxels); // scale 4: index counts floats
+  __m256 sum = _mm256_setzero_ps();
+  int j = j0;
+  for (; j + 8 <= j1; j += 8)
+  {
+    const __m256i jj = _mm256_add_epi32(_mm256_set1_epi32(j), lane);
+    const __m256 jf = _mm256_cvtepi32_ps(jj);
+    const __m256 b = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, db, b0), zero), upperB);
+    const __m256 c = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, dc, c0), zero), upperC);
+    const __m256i ib = _mm256_cvttps_epi32(b), ic = _mm256_cvttps_epi32(c);
+    const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
+    const __m256i base = _mm256_add_epi32(
+      _mm256_add_epi32(planeBase, _mm256_mullo_epi32(jj, strideA)), _mm256_add_epi32(ib, _mm256_mullo_epi32(ic, strideC)));
+    const __m512i low2 = _mm512_castpd_si512(_mm512_i32gather_pd(base, pairs, 4));
+    const __m512i high2 = _mm512_castpd_si512(_mm512_i32gather_pd(_mm256_add_epi32(base, strideC), pairs, 4));
+    const __m256 v00 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(low2));
+    const __m256 v10 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(_mm512_srli_epi64(low2, 32)));
+    const __m256 v01 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(high2));
+    const __m256 v11 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(_mm512_srli_epi64(high2, 32)));
+    const __m256 low = _mm256_fmadd_ps(fb, _mm256_sub_ps(v10, v00), v00);
+    const __m256 high = _mm256_fmadd_ps(fb, _mm256_sub_ps(v11, v01), v01);
+    sum = _mm256_add_ps(sum, _mm256_fmadd_ps(fc, _mm256_sub_ps(high, low), low));
+  }
+  alignas(32) float lanes[8];
+  _mm256_store_ps(lanes, sum);
+  float total = ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
+  return total + SamplePlanesScalar(r, j, j1);
+}
+
 const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+  __builtin_cpu_supports("avx512vl");
 
 float SamplePlanes(const PlaneRun& r, int j0, int j1)
 {
+  if (HaveAVX512 && r.strideB == 1)
+  {
+    return SamplePlanesPairedAVX512(r, j0, j1);
+  }
   return HaveAVX2 ? SamplePlanesAVX2(r, j0, j1) : SamplePlanesScalar(r, j0, j1);
 }
 
 /**
- * Calls run(start, end) for each stretch of the ray, in t (mm), that crosses occupied 8^3
+ * Calls run(start, end) for each stretch of the ray, in t (mm), that crosses occupied blocks
  * blocks: a 3D DDA over the blocks (Amanatides & Woo), at most bx + by + bz steps.
  */
 template <typename RunFunction>
@@ -279,7 +327,8 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
   }
   int a = 0;
   ray.direction.cwiseAbs().maxCoeff(&a);
-  const int b = (a + 1) % 3, c = (a + 2) % 3;
+  // Interpolate along x as axis b whenever x is not the stepping axis: x-neighbours are adjacent.
+  const int b = a == 0 ? 1 : 0, c = 3 - a - b;
   const double da = ray.direction[a];
   const int sa = da > 0 ? 1 : -1;
   const int nx = volume.PaddedDimensions()[0], nxy = nx * volume.PaddedDimensions()[1];

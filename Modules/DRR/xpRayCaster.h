@@ -3,7 +3,7 @@
  * @brief Line integrals of attenuation from an X-ray source to detector pixels (the DRR kernel).
  *
  * Works on raw buffers so that a registration can call it once per pose with reused memory.
- * Rays are clipped to the volume and to the source-detector segment, empty 8^3 blocks are skipped,
+ * Rays are clipped to the volume and to the source-detector segment, empty 32^3 blocks are skipped,
  * and only pixels that the mask marks valid are traced: the cost scales with the valid count.
  * Every loop is bounded by the number of cells a ray can cross, so grazing rays, rays parallel to
  * the slices and rays that miss the volume end in bounded time with a defined result (0).
