@@ -1,0 +1,147 @@
+#include "xpMutualInformation.h"
+
+#include "xpError.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace xp
+{
+
+namespace
+{
+
+/** -sum p ln p over counts that sum to `total`. */
+double Entropy(const std::vector<long long>& counts, long long total)
+{
+  if (total <= 0)
+  {
+    return 0.0;
+  }
+  // H = ln N - (1/N) sum c ln c: one log per non-empty bin, no division per bin.
+  double sum = 0.0;
+  for (long long c : counts)
+  {
+    if (c > 0)
+    {
+      sum += static_cast<double>(c) * std::log(static_cast<double>(c));
+    }
+  }
+  return std::log(static_cast<double>(total)) - sum / static_cast<double>(total);
+}
+
+} // namespace
+
+JointHistogram::JointHistogram(int bins, int maxValue)
+  : NumberOfBins(bins)
+  , MaxValue(maxValue)
+{
+  if (bins < 2 || bins > 1024)
+  {
+    throw InputError("--bins", "must be between 2 and 1024");
+  }
+  if (maxValue < 1)
+  {
+    throw Error("joint histogram: maximum grey value must be positive");
+  }
+  this->JointCounts.assign(static_cast<size_t>(bins) * bins, 0);
+  this->FixedCounts.assign(bins, 0);
+  this->MovingCounts.assign(bins, 0);
+  // bin = value * bins / (maxValue + 1), through a lookup table (12-bit: 4096 entries).
+  this->BinOf.resize(static_cast<size_t>(maxValue) + 1);
+  for (int v = 0; v <= maxValue; ++v)
+  {
+    this->BinOf[v] = static_cast<uint16_t>(static_cast<long long>(v) * bins / (maxValue + 1));
+  }
+}
+
+void JointHistogram::Compute(const uint16_t* fixed, const uint16_t* moving, long long count, const uint8_t* fixedMask,
+  const uint8_t* movingMask)
+{
+  std::fill(this->JointCounts.begin(), this->JointCounts.end(), 0);
+  const int bins = this->NumberOfBins;
+  const uint16_t* binOf = this->BinOf.data();
+  const int maxValue = this->MaxValue;
+  const auto bin = [&](uint16_t v) { return v > maxValue ? bins - 1 : binOf[v]; };
+  long long total = 0;
+  for (long long i = 0; i < count; ++i)
+  {
+    if ((fixedMask && !fixedMask[i]) || (movingMask && !movingMask[i]))
+    {
+      continue;
+    }
+    ++this->JointCounts[static_cast<size_t>(bin(fixed[i])) * bins + bin(moving[i])];
+    ++total;
+  }
+  this->Total = total;
+  std::fill(this->FixedCounts.begin(), this->FixedCounts.end(), 0);
+  std::fill(this->MovingCounts.begin(), this->MovingCounts.end(), 0);
+  for (int f = 0; f < bins; ++f)
+  {
+    for (int m = 0; m < bins; ++m)
+    {
+      const long long c = this->JointCounts[static_cast<size_t>(f) * bins + m];
+      this->FixedCounts[f] += c;
+      this->MovingCounts[m] += c;
+    }
+  }
+}
+
+double JointHistogram::FixedEntropy() const
+{
+  return Entropy(this->FixedCounts, this->Total);
+}
+
+double JointHistogram::MovingEntropy() const
+{
+  return Entropy(this->MovingCounts, this->Total);
+}
+
+double JointHistogram::JointEntropy() const
+{
+  return Entropy(this->JointCounts, this->Total);
+}
+
+double JointHistogram::MutualInformation() const
+{
+  if (this->Total == 0)
+  {
+    return 0.0;
+  }
+  return std::max(0.0, this->FixedEntropy() + this->MovingEntropy() - this->JointEntropy());
+}
+
+double JointHistogram::NormalizedMutualInformation() const
+{
+  const double joint = this->JointEntropy();
+  return joint > 0.0 ? (this->FixedEntropy() + this->MovingEntropy()) / joint : 1.0;
+}
+
+double NormalizedCrossCorrelation(const uint16_t* fixed, const uint16_t* moving, long long count,
+  const uint8_t* fixedMask, const uint8_t* movingMask)
+{
+  double sf = 0, sm = 0, sff = 0, smm = 0, sfm = 0;
+  long long n = 0;
+  for (long long i = 0; i < count; ++i)
+  {
+    if ((fixedMask && !fixedMask[i]) || (movingMask && !movingMask[i]))
+    {
+      continue;
+    }
+    const double f = fixed[i], m = moving[i];
+    sf += f;
+    sm += m;
+    sff += f * f;
+    smm += m * m;
+    sfm += f * m;
+    ++n;
+  }
+  if (n < 2)
+  {
+    return 0.0;
+  }
+  const double cov = sfm - sf * sm / n, vf = sff - sf * sf / n, vm = smm - sm * sm / n;
+  return (vf > 0 && vm > 0) ? cov / std::sqrt(vf * vm) : 0.0;
+}
+
+} // namespace xp
