@@ -56,6 +56,15 @@ struct BenchOptions
   int repetitions = 3;
 };
 
+struct MaskOptions
+{
+  std::string xray;           ///< 16-bit PNG with 12-bit values
+  std::string roi;            ///< optional PNG, non-zero = allowed
+  int window = 7;             ///< block size at half resolution
+  int binWidth = 32;          ///< grey levels per bin
+  std::string outputDirectory;
+};
+
 /** Runs `body`, turning xp::InputError into exit code 2 and other exceptions into 1, with one
  *  line on stderr: "xpose <command>: error: <message>". */
 int GuardedRun(const std::string& command, const std::function<int()>& body);
@@ -63,6 +72,7 @@ int GuardedRun(const std::string& command, const std::function<int()>& body);
 int RunPhantom(const PhantomOptions& options);
 int RunDRR(const DRROptions& options);
 int RunBenchDRR(const BenchOptions& options);
+int RunMask(const MaskOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);

@@ -43,7 +43,17 @@ int main(int argc, char** argv)
   benchDRR->add_option("--repetitions", bench.repetitions, "Runs per figure (the median is printed)")
     ->capture_default_str();
 
+  xp::MaskOptions mask;
+  CLI::App* maskCommand = app.add_subcommand("mask", "Block-entropy validity mask of an X-ray (METHOD.md section 3)");
+  maskCommand->add_option("--xray", mask.xray, "X-ray: 16-bit PNG with 12-bit values")->required();
+  maskCommand->add_option("--roi", mask.roi, "User ROI PNG of the same size (non-zero = allowed)");
+  maskCommand->add_option("--window", mask.window, "Block size at half resolution")->capture_default_str();
+  maskCommand->add_option("--bin-width", mask.binWidth, "Grey levels per bin")->capture_default_str();
+  maskCommand->add_option("--out-dir", mask.outputDirectory, "Output folder")->required();
+
   CLI11_PARSE(app, argc, argv);
+  if (maskCommand->parsed())
+    return xp::GuardedRun("mask", [&] { return xp::RunMask(mask); });
   if (phantomCommand->parsed())
     return xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); });
   if (drrCommand->parsed())

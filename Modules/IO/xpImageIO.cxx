@@ -79,6 +79,32 @@ vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, 
   return mask;
 }
 
+vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path)
+{
+  vtkNew<vtkPNGReader> reader;
+  if (!reader->CanReadFile(path.c_str()))
+  {
+    throw InputError(path, "not a readable PNG image");
+  }
+  reader->SetFileName(path.c_str());
+  reader->Update();
+  vtkImageData* image = reader->GetOutput();
+  if (image->GetScalarType() != VTK_UNSIGNED_SHORT || image->GetNumberOfScalarComponents() != 1)
+  {
+    throw InputError(path, "expected a 16-bit grey PNG holding 12-bit values (0..4095)");
+  }
+  double range[2];
+  image->GetPointData()->GetScalars()->GetRange(range);
+  if (range[1] > 4095.0)
+  {
+    throw InputError(path, "pixel values up to " + std::to_string(static_cast<int>(range[1])) +
+        ": not a 12-bit image (0..4095)");
+  }
+  auto copy = vtkSmartPointer<vtkImageData>::New();
+  copy->DeepCopy(image);
+  return copy;
+}
+
 void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path)
 {
   int dims[3];

@@ -39,6 +39,13 @@ VTKXPIO_EXPORT void WriteDetectorMetaImage(vtkImageData* image, const XRayView& 
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows);
 
 /**
+ * Reads a 12-bit X-ray stored as a 16-bit grey PNG (values 0..4095), in VTK row order. Throws
+ * xp::InputError naming the file when it is unreadable, not 16-bit grey, or holds values above
+ * 4095 (not a 12-bit image).
+ */
+VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path);
+
+/**
  * Collects output files in a hidden staging folder inside `directory` and moves them into place
  * only on Commit(): a command that fails half-way leaves nothing half-written behind.
  */

@@ -192,3 +192,28 @@ TEST(Commands, RealPelvisCT)
   EXPECT_LT(range[0], 300.0) << "the pelvis attenuates strongly along oblique rays";
   EXPECT_EQ(range[1], 4095.0) << "rows beyond the 140 mm of CT see no attenuation";
 }
+
+TEST(Commands, MaskOfADRRWritesMaskAndEntropy)
+{
+  xp::DRROptions drr = SmallDRR("cmd-mask-drr");
+  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
+  ASSERT_EQ(std::system("rm -rf cmd-mask"), 0);
+  xp::MaskOptions options;
+  options.xray = "cmd-mask-drr/drr_A.png";
+  options.outputDirectory = "cmd-mask";
+  ASSERT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitOk);
+  EXPECT_TRUE(Exists("cmd-mask/mask.png"));
+  EXPECT_TRUE(Exists("cmd-mask/entropy.png"));
+
+  // An ROI that allows nothing leaves an empty mask: refused, nothing written.
+  ASSERT_EQ(std::system("rm -rf cmd-mask-empty cmd-roi && mkdir cmd-roi"), 0);
+  WriteMask("cmd-roi/roi.png", 128, 96, 1);
+  options.roi = "cmd-roi/roi.png";
+  options.outputDirectory = "cmd-mask-empty";
+  EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitBadInput);
+  EXPECT_EQ(CountFiles("cmd-mask-empty"), 0);
+  // A DRR display PNG is 8-bit: not a 12-bit X-ray.
+  options.roi.clear();
+  options.xray = "cmd-mask-drr/drr_A_display.png";
+  EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitBadInput);
+}

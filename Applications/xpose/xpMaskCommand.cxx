@@ -1,0 +1,60 @@
+#include "xpCommands.h"
+
+#include "vtkXPEntropyMaskFilter.h"
+#include "xpError.h"
+#include "xpImageIO.h"
+
+#include <vtkImageData.h>
+#include <vtkNew.h>
+
+#include <cmath>
+#include <cstdio>
+
+namespace xp
+{
+
+int RunMask(const MaskOptions& options)
+{
+  vtkSmartPointer<vtkImageData> xray = ReadXRayPNG(options.xray);
+  int dims[3];
+  xray->GetDimensions(dims);
+  vtkSmartPointer<vtkImageData> roi;
+  if (!options.roi.empty())
+  {
+    roi = ReadMaskPNG(options.roi, dims[0], dims[1]);
+  }
+  vtkNew<vtkXPEntropyMaskFilter> filter;
+  filter->SetInputData(0, xray);
+  filter->SetInputData(1, roi);
+  filter->SetWindowSize(options.window);
+  filter->SetBinWidth(options.binWidth);
+  filter->Update();
+  if (filter->GetOutput(0)->GetNumberOfPoints() == 0)
+  {
+    throw InputError(options.xray, "the entropy mask could not be computed (see the message above)");
+  }
+  if (filter->GetValidFraction() == 0.0)
+  {
+    throw InputError(options.xray, "the mask is empty: no region holds enough information to register");
+  }
+  // 8-bit entropy map, entropy x 255.
+  vtkNew<vtkImageData> entropy;
+  entropy->CopyStructure(filter->GetOutput(1));
+  entropy->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  const auto* h = static_cast<const float*>(filter->GetOutput(1)->GetScalarPointer());
+  auto* e = static_cast<uint8_t*>(entropy->GetScalarPointer());
+  for (vtkIdType i = 0; i < entropy->GetNumberOfPoints(); ++i)
+  {
+    e[i] = static_cast<uint8_t>(std::lround(255.0 * std::min(1.0f, std::max(0.0f, h[i]))));
+  }
+  StagedOutputDirectory output(options.outputDirectory);
+  WritePNG(filter->GetOutput(0), output.Path("mask.png"));
+  WritePNG(entropy, output.Path("entropy.png"));
+  output.Commit();
+  std::printf("%s: %dx%d, image entropy H(X) = %.4f, valid fraction %.4f; wrote mask.png and entropy.png to %s\n",
+    options.xray.c_str(), dims[0], dims[1], filter->GetImageEntropy(), filter->GetValidFraction(),
+    options.outputDirectory.c_str());
+  return ExitOk;
+}
+
+} // namespace xp
