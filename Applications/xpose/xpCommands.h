@@ -65,6 +65,22 @@ struct MaskOptions
   std::string outputDirectory;
 };
 
+struct SimulateOptions
+{
+  std::string ct;
+  std::string series;
+  std::string geometry;
+  std::string pose = "0,0,0,0,0,0"; ///< the true misalignment
+  std::string size;
+  std::string isocenterInCT;
+  double noise = 0.0;               ///< quantum noise, 12-bit grey levels (sd) at full transmission
+  bool kvContrast = false;          ///< a different attenuation model than the DRR's
+  bool addObjects = false;          ///< a couch rail and a frame corner only the X-ray shows
+  unsigned seed = 1;
+  int threads = 0;
+  std::string outputDirectory;
+};
+
 /** Runs `body`, turning xp::InputError into exit code 2 and other exceptions into 1, with one
  *  line on stderr: "xpose <command>: error: <message>". */
 int GuardedRun(const std::string& command, const std::function<int()>& body);
@@ -73,6 +89,7 @@ int RunPhantom(const PhantomOptions& options);
 int RunDRR(const DRROptions& options);
 int RunBenchDRR(const BenchOptions& options);
 int RunMask(const MaskOptions& options);
+int RunSimulate(const SimulateOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);

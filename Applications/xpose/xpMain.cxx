@@ -51,7 +51,24 @@ int main(int argc, char** argv)
   maskCommand->add_option("--bin-width", mask.binWidth, "Grey levels per bin")->capture_default_str();
   maskCommand->add_option("--out-dir", mask.outputDirectory, "Output folder")->required();
 
+  xp::SimulateOptions simulate;
+  CLI::App* simulateCommand = app.add_subcommand("simulate", "Simulate the stereo X-rays of a misaligned patient");
+  simulateCommand->add_option("--ct", simulate.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  simulateCommand->add_option("--series", simulate.series, "Series Instance UID when the folder holds several");
+  simulateCommand->add_option("--geometry", simulate.geometry, "Stereo geometry JSON")->required();
+  simulateCommand->add_option("--pose", simulate.pose, "True misalignment tx,ty,tz,pitch,roll,yaw")->required();
+  simulateCommand->add_option("--size", simulate.size, "Output COLSxROWS on the same panel");
+  simulateCommand->add_option("--iso-ct", simulate.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  simulateCommand->add_option("--noise", simulate.noise, "Quantum noise sd in grey levels at full transmission");
+  simulateCommand->add_flag("--kv-contrast", simulate.kvContrast, "Bone attenuates more than in the DRR model");
+  simulateCommand->add_flag("--add-objects", simulate.addObjects, "Add a couch rail and a frame only the X-ray shows");
+  simulateCommand->add_option("--seed", simulate.seed, "Noise seed")->capture_default_str();
+  simulateCommand->add_option("--threads", simulate.threads, "Threads (0: all cores)");
+  simulateCommand->add_option("--out-dir", simulate.outputDirectory, "Output folder")->required();
+
   CLI11_PARSE(app, argc, argv);
+  if (simulateCommand->parsed())
+    return xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); });
   if (maskCommand->parsed())
     return xp::GuardedRun("mask", [&] { return xp::RunMask(mask); });
   if (phantomCommand->parsed())

@@ -36,14 +36,18 @@ bool Exists(const std::string& path)
   return stat(path.c_str(), &s) == 0;
 }
 
-/** One coarse phantom CT shared by the tests of this file. */
+/**
+ * A coarse phantom CT, one per test: ctest runs the tests of this file as parallel processes in
+ * one folder, so each needs its own.
+ */
 const std::string& PhantomCT()
 {
   static const std::string dir = []
   {
-    EXPECT_EQ(std::system("rm -rf cmd-phantom"), 0);
+    const std::string folder = std::string("cmd-phantom-") + ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    EXPECT_EQ(std::system(("rm -rf " + folder).c_str()), 0);
     xp::PhantomOptions options;
-    options.outputDirectory = "cmd-phantom";
+    options.outputDirectory = folder;
     options.spacing = 3.0;
     EXPECT_EQ(xp::GuardedRun("phantom", [&] { return xp::RunPhantom(options); }), xp::ExitOk);
     return options.outputDirectory;
@@ -216,4 +220,37 @@ TEST(Commands, MaskOfADRRWritesMaskAndEntropy)
   options.roi.clear();
   options.xray = "cmd-mask-drr/drr_A_display.png";
   EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitBadInput);
+}
+
+TEST(Commands, SimulateWritesXRaysAndTruth)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-sim"), 0);
+  xp::SimulateOptions options;
+  options.ct = PhantomCT();
+  options.geometry = Geometry;
+  options.size = "128x96";
+  options.pose = "5,0,0,0,0,0";
+  options.noise = 20.0;
+  options.kvContrast = true;
+  options.addObjects = true;
+  options.outputDirectory = "cmd-sim";
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(options); }), xp::ExitOk);
+  std::ifstream truth("cmd-sim/truth.json");
+  const std::string text((std::istreambuf_iterator<char>(truth)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"misalignment\": {\"translation_mm\": [5.000000, 0.000000, 0.000000]"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"correction\": {\"translation_mm\": [-5.000000, "), std::string::npos) << text;
+  vtkNew<vtkPNGReader> reader;
+  reader->SetFileName("cmd-sim/xray_A.png");
+  reader->Update();
+  double range[2];
+  reader->GetOutput()->GetPointData()->GetScalars()->GetRange(range);
+  EXPECT_LE(range[1], 4095.0);
+  // The couch rail (columns 4-10 % of the width) is darker in the X-ray than anywhere in air.
+  const auto* p = static_cast<const unsigned short*>(reader->GetOutput()->GetScalarPointer());
+  EXPECT_LT(p[48 * 128 + 9], 600) << "rail";
+
+  options.noise = -1.0;
+  options.outputDirectory = "cmd-sim-bad";
+  EXPECT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(options); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-sim-bad"));
 }
