@@ -49,8 +49,9 @@ void AddObjects(float* lineIntegral, int columns, int rows)
   {
     for (int column = 0; column < columns; ++column)
     {
-      const double u = (column + 0.5) / columns, v = 1.0 - (row + 0.5) / rows; // v: 0 at the bottom
-      float& L = lineIntegral[static_cast<size_t>(row) * columns + column];     // VTK rows run up
+      // VTK rows run up: v is 0 at the bottom of the image as displayed.
+      const double u = (column + 0.5) / columns, v = (row + 0.5) / rows;
+      float& L = lineIntegral[static_cast<size_t>(row) * columns + column];
       if (u > 0.04 && u < 0.10)
         L += 2.5f; // couch rail: carbon and aluminium, strongly attenuating
       const bool frameBar = (u > 0.70 && v > 0.10 && v < 0.14) || (u > 0.70 && u < 0.74 && v < 0.30);
