@@ -1,0 +1,89 @@
+#include "xpPoseOptimizer.h"
+
+#include "xpError.h"
+
+#include <nlopt.hpp>
+
+#include <vector>
+
+namespace xp
+{
+
+namespace
+{
+
+Pose ToPose(const std::vector<double>& x)
+{
+  Pose pose;
+  pose.translation = { x[0], x[1], x[2] };
+  pose.pitch = x[3];
+  pose.roll = x[4];
+  pose.yaw = x[5];
+  return pose;
+}
+
+struct Context
+{
+  const std::function<double(const Pose&)>* objective;
+  int evaluations = 0;
+};
+
+double Trampoline(const std::vector<double>& x, std::vector<double>&, void* data)
+{
+  auto* context = static_cast<Context*>(data);
+  ++context->evaluations;
+  return (*context->objective)(ToPose(x));
+}
+
+} // namespace
+
+PoseOptimizerResult MaximizePose(
+  const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)
+{
+  nlopt::opt optimizer(nlopt::LN_NELDERMEAD, 6);
+  Context context{ &objective };
+  optimizer.set_max_objective(Trampoline, &context);
+  std::vector<double> x = { start.translation[0], start.translation[1], start.translation[2], start.pitch, start.roll,
+    start.yaw };
+  std::vector<double> lower(6), upper(6), step(6), tolerance(6);
+  for (int i = 0; i < 6; ++i)
+  {
+    const bool translation = i < 3;
+    const double bound = translation ? settings.boundMM : settings.boundDegrees;
+    lower[i] = x[i] - bound;
+    upper[i] = x[i] + bound;
+    step[i] = translation ? settings.initialStepMM : settings.initialStepDegrees;
+    tolerance[i] = translation ? settings.toleranceMM : settings.toleranceDegrees;
+  }
+  optimizer.set_lower_bounds(lower);
+  optimizer.set_upper_bounds(upper);
+  optimizer.set_initial_step(step);
+  optimizer.set_xtol_abs(tolerance);
+  optimizer.set_maxeval(settings.maxEvaluations);
+
+  PoseOptimizerResult result;
+  try
+  {
+    double value = 0.0;
+    const nlopt::result code = optimizer.optimize(x, value);
+    result.value = value;
+    result.converged = code == nlopt::XTOL_REACHED || code == nlopt::FTOL_REACHED;
+    result.stopReason = code == nlopt::MAXEVAL_REACHED ? "evaluation limit reached"
+      : result.converged                             ? "tolerance reached"
+                                                     : "stopped (NLopt code " + std::to_string(code) + ")";
+  }
+  catch (const nlopt::roundoff_limited&)
+  {
+    result.value = optimizer.last_optimum_value();
+    result.stopReason = "round-off limited";
+  }
+  catch (const std::exception& e)
+  {
+    throw Error("pose optimiser", e.what());
+  }
+  result.pose = ToPose(x);
+  result.evaluations = context.evaluations;
+  return result;
+}
+
+} // namespace xp

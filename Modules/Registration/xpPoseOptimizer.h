@@ -1,0 +1,43 @@
+/**
+ * @file xpPoseOptimizer.h
+ * @brief Maximises a pose objective with NLopt's downhill simplex (Nelder-Mead), in mm and degrees.
+ */
+#ifndef xpPoseOptimizer_h
+#define xpPoseOptimizer_h
+
+#include "vtkXPRegistrationModule.h"
+
+#include "xpPose.h"
+
+#include <functional>
+
+namespace xp
+{
+
+struct PoseOptimizerSettings
+{
+  double initialStepMM = 2.0;       ///< simplex size for translations
+  double initialStepDegrees = 1.0;  ///< and for rotations
+  double toleranceMM = 0.02;        ///< stop when a step changes every parameter less than this
+  double toleranceDegrees = 0.01;
+  int maxEvaluations = 300;
+  double boundMM = 60.0;            ///< search box around the start
+  double boundDegrees = 15.0;
+};
+
+struct PoseOptimizerResult
+{
+  Pose pose;
+  double value = 0.0;
+  int evaluations = 0;
+  bool converged = false;  ///< stopped on the tolerances, not on the evaluation limit
+  std::string stopReason;
+};
+
+/** Maximises `objective` from `start` with a 6-parameter simplex. */
+VTKXPREGISTRATION_EXPORT PoseOptimizerResult MaximizePose(
+  const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings = {});
+
+} // namespace xp
+
+#endif
