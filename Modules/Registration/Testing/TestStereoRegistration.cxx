@@ -102,3 +102,34 @@ TEST(PoseOptimizer, RecoversAKnownMisalignmentWithTheRightSigns)
   std::printf("recovered %s in %d evaluations (%s)\n", result.pose.ToString().c_str(), result.evaluations,
     result.stopReason.c_str());
 }
+
+#include "xpPreAlignment.h"
+
+TEST(PreAlignment, InverseProjectionOfProjectedMotionsGivesTheTranslation)
+{
+  // A pure 3D translation seen by both views: the projected shifts give it back exactly.
+  const std::vector<xp::XRayView> views = StereoViews(160, 120);
+  const Eigen::Vector3d t(6.0, -4.0, 3.0);
+  std::vector<xp::Motion2D> motions;
+  for (const xp::XRayView& view : views)
+  {
+    xp::Motion2D m;
+    m.shift = view.Project(t) - view.Project(Eigen::Vector3d::Zero());
+    motions.push_back(m);
+  }
+  const xp::Pose update = xp::InverseProjection(views, motions, Eigen::Vector3d::Zero());
+  EXPECT_NEAR((update.translation - t).norm(), 0.0, 0.05);
+  EXPECT_NEAR(update.yaw, 0.0, 1e-9);
+}
+
+TEST(PreAlignment, BringsALargeMisalignmentIntoTheFineRange)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("12,-9,7,0,0,3", "truth");
+  xp::StereoSimilarity similarity(scene.volume, scene.planned, Eigen::Vector3d::Zero(), Simulate(scene, truth, 3), 32);
+  const xp::PreAlignmentResult result = xp::PreAlign(similarity, xp::Pose{}, Eigen::Vector3d::Zero());
+  const double remaining = (result.pose.translation - truth.translation).norm();
+  std::printf("pre-alignment: %s after %d iterations, %lld DRRs; %.2f mm from the truth\n",
+    result.pose.ToString().c_str(), result.iterations, result.drrs, remaining);
+  EXPECT_LT(remaining, 3.0) << "from " << truth.translation.norm() << " mm";
+}

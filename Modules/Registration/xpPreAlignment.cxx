@@ -1,0 +1,188 @@
+#include "xpPreAlignment.h"
+
+#include "xpError.h"
+#include "xpMutualInformation.h"
+
+#include <Eigen/Geometry>
+#include <nlopt.hpp>
+
+#include <cmath>
+
+namespace xp
+{
+
+namespace
+{
+
+constexpr double RadiansPerDegree = M_PI / 180.0;
+
+/** moving(T^-1 p) for every pixel p, bilinear; `valid` marks pixels whose source is inside. */
+void Warp(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion, std::vector<uint16_t>& out,
+  std::vector<uint8_t>& valid)
+{
+  const double c = std::cos(-motion.rotation * RadiansPerDegree), s = std::sin(-motion.rotation * RadiansPerDegree);
+  for (int row = 0; row < rows; ++row)
+  {
+    for (int column = 0; column < columns; ++column)
+    {
+      // T^-1 p = R^-1 (p - center - shift) + center
+      const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
+      const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
+      const size_t i = static_cast<size_t>(row) * columns + column;
+      const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+      if (x0 < 0 || y0 < 0 || x0 + 1 >= columns || y0 + 1 >= rows)
+      {
+        valid[i] = 0;
+        out[i] = 0;
+        continue;
+      }
+      const double fx = x - x0, fy = y - y0;
+      const uint16_t* p = moving.data() + static_cast<size_t>(y0) * columns + x0;
+      const double top = p[0] + fx * (p[1] - p[0]), bottom = p[columns] + fx * (p[columns + 1] - p[columns]);
+      out[i] = static_cast<uint16_t>(std::lround(top + fy * (bottom - top)));
+      valid[i] = 1;
+    }
+  }
+}
+
+/** In-plane rotation (degrees, image coordinates) of a view's projection under a small 3D
+ *  rotation `omega` (radians, Room axes) about the isocentre, by projecting a ring of points. */
+double ProjectedRotation(const XRayView& view, const Eigen::Vector3d& isocenter, const Eigen::Vector3d& omega)
+{
+  const Eigen::Vector3d axis = (isocenter - view.source).normalized();
+  const Eigen::Vector3d u = axis.unitOrthogonal(), v = axis.cross(u);
+  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
+  const Eigen::Vector2d centre = view.Project(isocenter);
+  double sum = 0.0;
+  for (int k = 0; k < 8; ++k)
+  {
+    const double a = k * M_PI / 4.0;
+    const Eigen::Vector3d p = isocenter + 50.0 * (std::cos(a) * u + std::sin(a) * v);
+    const Eigen::Vector2d before = view.Project(p) - centre;
+    const Eigen::Vector2d after = view.Project(isocenter + rotation * (p - isocenter)) - centre;
+    sum += std::atan2(before[0] * after[1] - before[1] * after[0], before.dot(after));
+  }
+  return sum / 8.0 / RadiansPerDegree;
+}
+
+} // namespace
+
+Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, int columns, int rows,
+  const Eigen::Vector2d& center, const uint8_t* fixedMask, int bins)
+{
+  const size_t pixels = static_cast<size_t>(columns) * rows;
+  if (fixed.size() != pixels || moving.size() != pixels)
+  {
+    throw InputError("2D registration", "image sizes differ");
+  }
+  JointHistogram histogram(bins);
+  std::vector<uint16_t> warped(pixels);
+  std::vector<uint8_t> valid(pixels), both(pixels);
+  Motion2D motion;
+  motion.center = center;
+  auto mi = [&](const std::vector<double>& x)
+  {
+    motion.shift = { x[0], x[1] };
+    motion.rotation = x[2];
+    Warp(moving, columns, rows, motion, warped, valid);
+    for (size_t i = 0; i < pixels; ++i)
+      both[i] = valid[i] && (!fixedMask || fixedMask[i]);
+    histogram.Compute(fixed.data(), warped.data(), static_cast<long long>(pixels), both.data());
+    return histogram.MutualInformation();
+  };
+  using Objective = decltype(mi);
+  nlopt::opt optimizer(nlopt::LN_NELDERMEAD, 3);
+  optimizer.set_max_objective(
+    [](const std::vector<double>& x, std::vector<double>&, void* data) { return (*static_cast<Objective*>(data))(x); },
+    &mi);
+  const double reach = 0.25 * std::min(columns, rows);
+  optimizer.set_lower_bounds({ -reach, -reach, -20.0 });
+  optimizer.set_upper_bounds({ reach, reach, 20.0 });
+  optimizer.set_initial_step({ 0.03 * columns, 0.03 * columns, 2.0 });
+  optimizer.set_xtol_abs({ 0.05, 0.05, 0.02 });
+  optimizer.set_maxeval(400);
+  std::vector<double> x = { 0.0, 0.0, 0.0 };
+  double value = 0.0;
+  try
+  {
+    optimizer.optimize(x, value);
+  }
+  catch (const nlopt::roundoff_limited&)
+  {
+  }
+  motion.shift = { x[0], x[1] };
+  motion.rotation = x[2];
+  return motion;
+}
+
+Pose InverseProjection(const std::vector<XRayView>& views, const std::vector<Motion2D>& motions, const Eigen::Vector3d& isocenter)
+{
+  if (views.size() != motions.size() || views.size() < 2)
+  {
+    throw InputError("inverse projection", "needs the 2D motions of at least two views");
+  }
+  const size_t n = views.size();
+  Eigen::MatrixXd translation(2 * n, 3), rotation(n, 3);
+  Eigen::VectorXd shifts(2 * n), angles(n);
+  for (size_t v = 0; v < n; ++v)
+  {
+    const Eigen::Vector2d centre = views[v].Project(isocenter);
+    for (int a = 0; a < 3; ++a)
+    {
+      // Numerical Jacobians: 1 mm along each Room axis, 0.01 rad about each.
+      translation.block<2, 1>(2 * v, a) = views[v].Project(isocenter + Eigen::Vector3d::Unit(a)) - centre;
+      rotation(v, a) = ProjectedRotation(views[v], isocenter, 0.01 * Eigen::Vector3d::Unit(a)) / (0.01 / RadiansPerDegree);
+    }
+    shifts.segment<2>(2 * v) = motions[v].shift;
+    angles[v] = motions[v].rotation;
+  }
+  Pose update;
+  update.translation = translation.colPivHouseholderQr().solve(shifts);
+  // Minimum-norm rotation (degrees about X, Y, Z): the unobservable component stays 0.
+  const Eigen::Vector3d omega = rotation.completeOrthogonalDecomposition().solve(angles);
+  update.pitch = omega[0];
+  update.roll = omega[1];
+  update.yaw = omega[2];
+  return update;
+}
+
+PreAlignmentResult PreAlign(StereoSimilarity& similarity, const Pose& start, const Eigen::Vector3d& isocenter, int maxIterations)
+{
+  PreAlignmentResult result;
+  result.pose = start;
+  const long long drrsBefore = similarity.RenderedDRRs();
+  result.objective = similarity.Evaluate(start);
+  const std::vector<RegistrationView>& items = similarity.Views();
+  std::vector<XRayView> views;
+  for (const RegistrationView& item : items)
+    views.push_back(item.view);
+  for (int iteration = 0; iteration < maxIterations; ++iteration)
+  {
+    std::vector<Motion2D> motions;
+    for (size_t v = 0; v < items.size(); ++v)
+    {
+      motions.push_back(Register2D(items[v].xray, similarity.LastDRR(v), items[v].view.Columns(), items[v].view.Rows(),
+        items[v].view.Project(isocenter), items[v].mask.empty() ? nullptr : items[v].mask.data()));
+    }
+    const Pose update = InverseProjection(views, motions, isocenter);
+    const Pose candidate =
+      Pose::FromTransform(update.ToTransform(isocenter) * result.pose.ToTransform(isocenter), isocenter);
+    const double objective = similarity.Evaluate(candidate);
+    ++result.iterations;
+    if (objective <= result.objective)
+    {
+      similarity.Evaluate(result.pose); // leave the similarity's DRRs at the kept pose
+      break;
+    }
+    result.pose = candidate;
+    result.objective = objective;
+    if (update.translation.norm() < 0.05 && std::abs(update.pitch) + std::abs(update.roll) + std::abs(update.yaw) < 0.05)
+    {
+      break;
+    }
+  }
+  result.drrs = similarity.RenderedDRRs() - drrsBefore;
+  return result;
+}
+
+} // namespace xp

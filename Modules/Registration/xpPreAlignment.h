@@ -1,0 +1,63 @@
+/**
+ * @file xpPreAlignment.h
+ * @brief The 5+1-DOF pre-alignment of METHOD.md step 2: per view a 2D/2D registration of the
+ *        DRR onto the X-ray (shift u, shift v, in-plane rotation; MI; downhill simplex), then
+ *        inverse projection of both 2D results into one 3D rigid update, repeated while it helps.
+ */
+#ifndef xpPreAlignment_h
+#define xpPreAlignment_h
+
+#include "vtkXPRegistrationModule.h"
+
+#include "xpPose.h"
+#include "xpStereoSimilarity.h"
+
+#include <Eigen/Core>
+#include <vector>
+
+namespace xp
+{
+
+/** A 2D rigid motion on the panel: pixels, and degrees about `center` (pixel coordinates). */
+struct Motion2D
+{
+  Eigen::Vector2d shift = Eigen::Vector2d::Zero();
+  double rotation = 0.0;
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();
+};
+
+/**
+ * Registers `moving` onto `fixed` (both columns x rows, 12-bit, row 0 first): the motion T such
+ * that fixed(p) ~ moving(T^-1 p), maximising MI over pixels valid in `fixedMask` (null = all)
+ * whose source lies inside `moving`. Rotation is about `center`.
+ */
+VTKXPREGISTRATION_EXPORT Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving,
+  int columns, int rows, const Eigen::Vector2d& center, const uint8_t* fixedMask = nullptr, int bins = 32);
+
+/**
+ * The 3D misalignment increment (about `isocenter`) whose projections best explain the 2D motions
+ * of the views: translations by least squares on the shifts of the isocentre's projections,
+ * rotations as the smallest rotation that gives the in-plane rotations (the rotation about the
+ * axis perpendicular to both central rays is not observable and stays 0).
+ */
+VTKXPREGISTRATION_EXPORT Pose InverseProjection(
+  const std::vector<XRayView>& views, const std::vector<Motion2D>& motions, const Eigen::Vector3d& isocenter);
+
+struct PreAlignmentResult
+{
+  Pose pose;
+  int iterations = 0;
+  long long drrs = 0;
+  double objective = 0.0; ///< sum of MI^2 over the views, unmasked renderer
+};
+
+/**
+ * Repeats render -> 2D/2D per view -> inverse projection -> update while the stereo objective
+ * improves (at most `maxIterations`). `similarity` provides the X-rays, masks and rendering.
+ */
+VTKXPREGISTRATION_EXPORT PreAlignmentResult PreAlign(
+  StereoSimilarity& similarity, const Pose& start, const Eigen::Vector3d& isocenter, int maxIterations = 6);
+
+} // namespace xp
+
+#endif
