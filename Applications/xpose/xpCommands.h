@@ -20,7 +20,8 @@ enum ExitCode
 {
   ExitOk = 0,
   ExitFailure = 1,
-  ExitBadInput = 2
+  ExitBadInput = 2,
+  ExitRegistrationFailed = 3 ///< the images do not support a confident correction
 };
 
 struct PhantomOptions
@@ -81,6 +82,27 @@ struct SimulateOptions
   std::string outputDirectory;
 };
 
+struct RegisterOptions
+{
+  std::string ct;
+  std::string series;
+  std::string geometry;
+  std::vector<std::string> xrays;   ///< one per imager, in the geometry's order
+  std::vector<std::string> rois;    ///< optional, one per X-ray
+  bool entropyMask = true;
+  std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
+  std::string isocenterInCT;
+  double muWater = 0.0193;
+  int bins = 32;
+  int maxEvaluations = 400;
+  double maxTranslation = 50.0;     ///< quality gate: largest correction accepted (mm)
+  double maxRotation = 10.0;        ///< and degrees
+  double minSimilarity = 0.15;      ///< MI / H(X-ray) a view must reach at the result
+  double maxViewResidual = 1.0;     ///< mm a view's own 2D registration may still want to move
+  int threads = 0;
+  std::string outputDirectory;
+};
+
 /** Runs `body`, turning xp::InputError into exit code 2 and other exceptions into 1, with one
  *  line on stderr: "xpose <command>: error: <message>". */
 int GuardedRun(const std::string& command, const std::function<int()>& body);
@@ -90,6 +112,7 @@ int RunDRR(const DRROptions& options);
 int RunBenchDRR(const BenchOptions& options);
 int RunMask(const MaskOptions& options);
 int RunSimulate(const SimulateOptions& options);
+int RunRegister(const RegisterOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);

@@ -66,7 +66,26 @@ int main(int argc, char** argv)
   simulateCommand->add_option("--threads", simulate.threads, "Threads (0: all cores)");
   simulateCommand->add_option("--out-dir", simulate.outputDirectory, "Output folder")->required();
 
+  xp::RegisterOptions reg;
+  CLI::App* registerCommand = app.add_subcommand("register", "Find the patient's 6-DOF misalignment from the stereo X-rays");
+  registerCommand->add_option("--ct", reg.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  registerCommand->add_option("--series", reg.series, "Series Instance UID when the folder holds several");
+  registerCommand->add_option("--geometry", reg.geometry, "Stereo geometry JSON")->required();
+  registerCommand->add_option("--xray", reg.xrays, "X-ray PNG (12-bit), one per imager in order")->required();
+  registerCommand->add_option("--roi", reg.rois, "User ROI PNG per X-ray (non-zero = use)");
+  registerCommand->add_flag("!--no-entropy-mask", reg.entropyMask, "Register the whole image (no entropy mask)");
+  registerCommand->add_option("--size", reg.size, "Registration resolution COLSxROWS (divides the panel)");
+  registerCommand->add_option("--iso-ct", reg.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  registerCommand->add_option("--bins", reg.bins, "MI histogram bins")->capture_default_str();
+  registerCommand->add_option("--max-evaluations", reg.maxEvaluations, "6-DOF evaluation limit")->capture_default_str();
+  registerCommand->add_option("--max-translation", reg.maxTranslation, "Largest accepted correction, mm")->capture_default_str();
+  registerCommand->add_option("--max-rotation", reg.maxRotation, "Largest accepted correction, degrees")->capture_default_str();
+  registerCommand->add_option("--threads", reg.threads, "Threads (0: all cores)");
+  registerCommand->add_option("--out-dir", reg.outputDirectory, "Output folder")->required();
+
   CLI11_PARSE(app, argc, argv);
+  if (registerCommand->parsed())
+    return xp::GuardedRun("register", [&] { return xp::RunRegister(reg); });
   if (simulateCommand->parsed())
     return xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); });
   if (maskCommand->parsed())

@@ -2,7 +2,10 @@
 #include "xpCommands.h"
 
 #include <dirent.h>
+#include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <random>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <vtkDataArray.h>
@@ -253,4 +256,111 @@ TEST(Commands, SimulateWritesXRaysAndTruth)
   options.outputDirectory = "cmd-sim-bad";
   EXPECT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(options); }), xp::ExitBadInput);
   EXPECT_FALSE(Exists("cmd-sim-bad"));
+}
+
+namespace
+{
+
+std::string ReadText(const std::string& path)
+{
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+/** The number after `"key": ` in `text` (first occurrence after `after`). */
+double JsonNumber(const std::string& text, const std::string& key, const std::string& after = "")
+{
+  const size_t from = after.empty() ? 0 : text.find(after);
+  const size_t at = text.find("\"" + key + "\": ", from);
+  EXPECT_NE(at, std::string::npos) << key;
+  return std::stod(text.substr(at + key.size() + 4));
+}
+
+xp::RegisterOptions RegisterSimulated(const std::string& simulated, const std::string& out)
+{
+  xp::RegisterOptions options;
+  options.ct = PhantomCT();
+  options.geometry = Geometry;
+  options.xrays = { simulated + "/xray_A.png", simulated + "/xray_B.png" };
+  options.size = "256x192";
+  options.outputDirectory = out;
+  return options;
+}
+
+} // namespace
+
+TEST(Commands, RegisterRecoversASimulatedMisalignment)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-reg-sim cmd-reg"), 0);
+  xp::SimulateOptions simulate;
+  simulate.ct = PhantomCT();
+  simulate.geometry = Geometry;
+  simulate.pose = "5,-3,2,1,-1,1.5";
+  simulate.noise = 20.0;
+  simulate.kvContrast = true;
+  simulate.outputDirectory = "cmd-reg-sim";
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  const xp::RegisterOptions options = RegisterSimulated("cmd-reg-sim", "cmd-reg");
+  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+  const std::string result = ReadText("cmd-reg/result.json");
+  EXPECT_NE(result.find("\"status\": \"ok\""), std::string::npos) << result;
+  // Misalignment as simulated; the correction of a +5 mm lateral shift is about -5 mm.
+  const size_t misalignment = result.find("\"misalignment\": {\"translation_mm\": [");
+  ASSERT_NE(misalignment, std::string::npos);
+  double t[3];
+  std::sscanf(result.c_str() + misalignment, "\"misalignment\": {\"translation_mm\": [%lf, %lf, %lf]", &t[0], &t[1], &t[2]);
+  EXPECT_NEAR(t[0], 5.0, 0.5);
+  EXPECT_NEAR(t[1], -3.0, 0.5);
+  EXPECT_NEAR(t[2], 2.0, 0.5);
+  EXPECT_NEAR(JsonNumber(result, "pitch", "\"misalignment\""), 1.0, 0.3);
+  EXPECT_NEAR(JsonNumber(result, "roll", "\"misalignment\""), -1.0, 0.3);
+  EXPECT_NEAR(JsonNumber(result, "yaw", "\"misalignment\""), 1.5, 0.3);
+  const size_t correction = result.find("\"correction\": {\"translation_mm\": [");
+  double c[3];
+  std::sscanf(result.c_str() + correction, "\"correction\": {\"translation_mm\": [%lf, %lf, %lf]", &c[0], &c[1], &c[2]);
+  EXPECT_LT(c[0], -4.0) << "correction moves the patient back";
+  for (const char* file : { "drr_A.png", "drr_B.png", "mask_A.png", "mask_B.png", "entropy_A.png" })
+    EXPECT_TRUE(Exists(std::string("cmd-reg/") + file)) << file;
+}
+
+TEST(Commands, RegisterRefusesImagesOfSomethingElse)
+{
+  // X-rays that show no patient like the CT (smooth random texture): status failed, exit 3.
+  ASSERT_EQ(std::system("rm -rf cmd-reg-other cmd-reg-failed && mkdir cmd-reg-other"), 0);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> phase(0.0, 6.28);
+  for (const char* name : { "A", "B" })
+  {
+    vtkNew<vtkImageData> image;
+    image->SetDimensions(1024, 768, 1);
+    image->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+    auto* p = static_cast<unsigned short*>(image->GetScalarPointer());
+    const double a = phase(random), b = phase(random);
+    for (int y = 0; y < 768; ++y)
+      for (int x = 0; x < 1024; ++x)
+        p[y * 1024 + x] = static_cast<unsigned short>(2000 + 900 * std::sin(x * 0.021 + a) * std::cos(y * 0.034 + b) +
+          400 * std::sin((x + y) * 0.05));
+    vtkNew<vtkPNGWriter> writer;
+    writer->SetInputData(image);
+    writer->SetFileName((std::string("cmd-reg-other/xray_") + name + ".png").c_str());
+    writer->Write();
+  }
+  const xp::RegisterOptions options = RegisterSimulated("cmd-reg-other", "cmd-reg-failed");
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
+  const std::string result = ReadText("cmd-reg-failed/result.json");
+  EXPECT_NE(result.find("\"status\": \"failed\""), std::string::npos) << result;
+  EXPECT_EQ(result.find("\"reasons\": []"), std::string::npos) << "a failure says why";
+}
+
+TEST(Commands, RegisterBadInputExitsWithTwo)
+{
+  xp::RegisterOptions options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
+  options.xrays.pop_back();
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "one X-ray";
+  options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "missing files";
+  options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
+  options.size = "300x200";
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "size";
+  EXPECT_FALSE(Exists("cmd-reg-bad"));
 }
