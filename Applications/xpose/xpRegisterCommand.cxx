@@ -187,16 +187,31 @@ int RunRegister(const RegisterOptions& options)
   const Eigen::Isometry3d planned =
     PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), isoInCT, roomIso);
 
+  // Coarse stages run at half resolution (a quarter of the rays) when the images allow it.
+  const bool pyramid = views[0].view.Columns() >= 256 && views[0].view.Rows() >= 192;
+  const auto halfOf = [&](const RegistrationView& item)
+  {
+    RegistrationView small;
+    small.view = item.view.Resampled(item.view.Columns() / 2, item.view.Rows() / 2);
+    small.xray = Shrink(item.xray, item.view.Columns(), 2);
+    small.mask = item.mask.empty() ? item.mask : Shrink(item.mask, item.view.Columns(), 2, true);
+    return small;
+  };
+
   // --- pre-alignment (5+1 DOF), user ROIs only ---
   const Clock::time_point prealignStart = Clock::now();
-  std::vector<RegistrationView> roiViews = views;
+  std::vector<RegistrationView> roiViews;
   for (size_t v = 0; v < views.size(); ++v)
-    roiViews[v].mask = rois[v];
+  {
+    RegistrationView item = views[v];
+    item.mask = rois[v];
+    roiViews.push_back(pyramid ? halfOf(item) : item);
+  }
   StereoSimilarity coarse(volume, planned, roomIso, roiViews, options.bins);
   const PreAlignmentResult prealigned = PreAlign(coarse, Pose{}, roomIso);
   const double prealignSeconds = Since(prealignStart);
-  std::printf("pre-alignment: %s, %d iterations, %lld DRRs (%.2f s)\n", prealigned.pose.ToString().c_str(),
-    prealigned.iterations, prealigned.drrs, prealignSeconds);
+  std::printf("pre-alignment at %dx%d: %s, %d iterations, %lld DRRs (%.2f s)\n", roiViews[0].view.Columns(),
+    roiViews[0].view.Rows(), prealigned.pose.ToString().c_str(), prealigned.iterations, prealigned.drrs, prealignSeconds);
 
   // --- masks: block entropy of each X-ray AND its ROI, transferred into the DRR plane ---
   const Clock::time_point maskStart = Clock::now();
@@ -222,14 +237,41 @@ int RunRegister(const RegisterOptions& options)
   }
   const double maskSeconds = Since(maskStart);
 
-  // --- 6-DOF fine alignment over both views with masked DRRs ---
+  // --- 6-DOF fine alignment over both views with masked DRRs, coarse to fine ---
   const Clock::time_point fineStart = Clock::now();
+  Pose startPose = prealigned.pose;
+  int evaluations = 0;
+  long long coarseDRRs = 0;
+  if (pyramid)
+  {
+    // Half resolution first: a quarter of the rays per evaluation for most of the simplex's travel.
+    std::vector<RegistrationView> half;
+    for (const RegistrationView& item : views)
+      half.push_back(halfOf(item));
+    StereoSimilarity halfSimilarity(volume, planned, roomIso, half, options.bins);
+    PoseOptimizerSettings halfSettings;
+    halfSettings.initialStepMM = 1.0;
+    halfSettings.initialStepDegrees = 0.5;
+    halfSettings.toleranceMM = 0.1;
+    halfSettings.toleranceDegrees = 0.05;
+    halfSettings.maxEvaluations = options.maxEvaluations;
+    const PoseOptimizerResult halfResult =
+      MaximizePose([&](const Pose& p) { return halfSimilarity.Evaluate(p); }, startPose, halfSettings);
+    startPose = halfResult.pose;
+    evaluations += halfResult.evaluations;
+    std::printf("fine 6-DOF at %dx%d: %s, %d evaluations (%.2f s)\n", half[0].view.Columns(), half[0].view.Rows(),
+      halfResult.pose.ToString().c_str(), halfResult.evaluations, Since(fineStart));
+    coarseDRRs = halfSimilarity.RenderedDRRs();
+  }
   StereoSimilarity fine(volume, planned, roomIso, views, options.bins);
   PoseOptimizerSettings settings;
-  settings.initialStepMM = 1.0;
-  settings.initialStepDegrees = 0.5;
+  settings.initialStepMM = coarseDRRs > 0 ? 0.25 : 1.0;
+  settings.initialStepDegrees = coarseDRRs > 0 ? 0.15 : 0.5;
+  settings.toleranceMM = 0.05;      // 0.05 mm and 0.03 degrees: ten times finer than the
+  settings.toleranceDegrees = 0.03; // accuracy asked of the result, at a third of the evaluations
   settings.maxEvaluations = options.maxEvaluations;
-  const PoseOptimizerResult result = MaximizePose([&](const Pose& p) { return fine.Evaluate(p); }, prealigned.pose, settings);
+  PoseOptimizerResult result = MaximizePose([&](const Pose& p) { return fine.Evaluate(p); }, startPose, settings);
+  result.evaluations += evaluations;
   fine.Evaluate(result.pose);
   const double fineSeconds = Since(fineStart);
   std::printf("fine 6-DOF: %s, %d evaluations, %s (%.2f s)\n", result.pose.ToString().c_str(), result.evaluations,
@@ -300,7 +342,7 @@ int RunRegister(const RegisterOptions& options)
   for (size_t v = 0; v < views.size(); ++v)
     json << (v ? ", " : "") << JsonString(views[v].view.name) << ": "
          << static_cast<double>(std::count(views[v].mask.begin(), views[v].mask.end(), 1)) / views[v].mask.size();
-  json << "},\n  \"drr_count\": " << coarse.RenderedDRRs() + fine.RenderedDRRs() << ",\n  \"evaluations\": " << result.evaluations
+  json << "},\n  \"drr_count\": " << coarse.RenderedDRRs() + coarseDRRs + fine.RenderedDRRs() << ",\n  \"evaluations\": " << result.evaluations
        << ",\n  \"timing_s\": {\"read\": " << readSeconds << ", \"prealign\": " << prealignSeconds << ", \"mask\": " << maskSeconds
        << ", \"fine\": " << fineSeconds << ", \"total\": " << totalSeconds << "},\n  \"reasons\": [";
   for (size_t r = 0; r < reasons.size(); ++r)
@@ -327,7 +369,7 @@ int RunRegister(const RegisterOptions& options)
   std::printf("\n%s\nmisalignment: %s\ncorrection:   %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); apply the "
               "correction to the table only when status is ok)\nDRRs: %lld, evaluations: %d, total %.2f s; result.json in %s\n",
     ok ? "status: ok" : "status: FAILED", result.pose.ToString().c_str(), correction.ToString().c_str(),
-    coarse.RenderedDRRs() + fine.RenderedDRRs(), result.evaluations, totalSeconds, options.outputDirectory.c_str());
+    coarse.RenderedDRRs() + coarseDRRs + fine.RenderedDRRs(), result.evaluations, totalSeconds, options.outputDirectory.c_str());
   for (const std::string& reason : reasons)
     std::printf("  reason: %s\n", reason.c_str());
   return ok ? ExitOk : ExitRegistrationFailed;
