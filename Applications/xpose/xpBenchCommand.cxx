@@ -91,15 +91,8 @@ int RunBenchDRR(const BenchOptions& options)
   vtkImageData* ct = setup.ct.image;
   int dims[3];
   ct->GetDimensions(dims);
-  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c)
-      indexToCT.matrix()(r, c) = ct->GetIndexToPhysicalMatrix()->GetElement(r, c);
-
   const Clock::time_point prepare = Clock::now();
-  Scene scene{ AttenuationVolume(static_cast<const float*>(ct->GetPointData()->GetScalars()->GetVoidPointer(0)),
-                 Eigen::Vector3i(dims[0], dims[1], dims[2]), indexToCT, 0.0193),
-    Eigen::Isometry3d::Identity(), setup.geometry.views };
+  Scene scene{ std::move(*MakeAttenuationVolume(ct, 0.0193)), Eigen::Isometry3d::Identity(), setup.geometry.views };
   const double prepareSeconds = std::chrono::duration<double>(Clock::now() - prepare).count();
   double center[3];
   ImageCenter(ct, center);

@@ -4,6 +4,7 @@
 #include "xpError.h"
 #include "xpHeadPhantom.h"
 #include "xpImageIO.h"
+#include "xpPose.h"
 
 #include <vtkSMPTools.h>
 
@@ -43,6 +44,15 @@ std::pair<int, int> ParseSize(const std::string& text, const std::string& field)
     throw InputError(field, "expected COLSxROWS such as 512x384, got '" + text + "'");
   }
   return { columns, rows };
+}
+
+std::string JsonPose(const Pose& p)
+{
+  char text[256];
+  std::snprintf(text, sizeof(text),
+    "{\"translation_mm\": [%.6f, %.6f, %.6f], \"rotation_deg\": {\"pitch\": %.6f, \"roll\": %.6f, \"yaw\": %.6f}}",
+    p.translation[0], p.translation[1], p.translation[2], p.pitch, p.roll, p.yaw);
+  return text;
 }
 
 void UseThreads(int threads)

@@ -15,6 +15,7 @@
 
 namespace xp
 {
+struct Pose;
 
 enum ExitCode
 {
@@ -116,6 +117,9 @@ int RunRegister(const RegisterOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);
+
+/** {"translation_mm": [...], "rotation_deg": {"pitch": .., "roll": .., "yaw": ..}} */
+std::string JsonPose(const Pose& pose);
 
 /** Sets the number of threads used by every parallel kernel (0 = all cores). */
 void UseThreads(int threads);

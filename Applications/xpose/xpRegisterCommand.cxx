@@ -85,15 +85,6 @@ vtkSmartPointer<vtkImageData> ToVTK(const std::vector<T>& image, int columns, in
   return out;
 }
 
-std::string JsonPose(const Pose& p)
-{
-  char text[256];
-  std::snprintf(text, sizeof(text),
-    "{\"translation_mm\": [%.4f, %.4f, %.4f], \"rotation_deg\": {\"pitch\": %.4f, \"roll\": %.4f, \"yaw\": %.4f}}",
-    p.translation[0], p.translation[1], p.translation[2], p.pitch, p.roll, p.yaw);
-  return text;
-}
-
 std::string JsonString(const std::string& text)
 {
   std::string out = "\"";
@@ -170,14 +161,8 @@ int RunRegister(const RegisterOptions& options)
 
   // --- attenuation volume and planned set-up ---
   vtkImageData* ct = setup.ct.image;
-  int dims[3];
-  ct->GetDimensions(dims);
-  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c)
-      indexToCT.matrix()(r, c) = ct->GetIndexToPhysicalMatrix()->GetElement(r, c);
-  const AttenuationVolume volume(static_cast<const float*>(ct->GetPointData()->GetScalars()->GetVoidPointer(0)),
-    Eigen::Vector3i(dims[0], dims[1], dims[2]), indexToCT, options.muWater);
+  const std::unique_ptr<AttenuationVolume> attenuation = MakeAttenuationVolume(ct, options.muWater);
+  const AttenuationVolume& volume = *attenuation;
   Eigen::Vector3d isoInCT;
   if (options.isocenterInCT.empty())
     ImageCenter(ct, isoInCT.data());

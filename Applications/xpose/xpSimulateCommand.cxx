@@ -61,15 +61,6 @@ void AddObjects(float* lineIntegral, int columns, int rows)
   }
 }
 
-std::string JsonPose(const Pose& p)
-{
-  char text[256];
-  std::snprintf(text, sizeof(text),
-    "{\"translation_mm\": [%.6f, %.6f, %.6f], \"rotation_deg\": {\"pitch\": %.6f, \"roll\": %.6f, \"yaw\": %.6f}}",
-    p.translation[0], p.translation[1], p.translation[2], p.pitch, p.roll, p.yaw);
-  return text;
-}
-
 } // namespace
 
 int RunSimulate(const SimulateOptions& options)

@@ -117,42 +117,47 @@ int vtkXPDRRFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** 
   return 1;
 }
 
+std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* ct, double muWater)
+{
+  vtkDataArray* scalars = ct ? ct->GetPointData()->GetScalars() : nullptr;
+  if (!scalars || scalars->GetNumberOfComponents() != 1)
+  {
+    throw xp::InputError("CT input", "needs one scalar component in HU");
+  }
+  int dims[3];
+  ct->GetDimensions(dims);
+  std::vector<float> hu;
+  const float* values = nullptr;
+  if (scalars->GetDataType() == VTK_FLOAT)
+  {
+    values = static_cast<const float*>(scalars->GetVoidPointer(0));
+  }
+  else
+  {
+    hu.resize(static_cast<size_t>(scalars->GetNumberOfTuples()));
+    for (vtkIdType i = 0; i < scalars->GetNumberOfTuples(); ++i)
+    {
+      hu[i] = static_cast<float>(scalars->GetTuple1(i));
+    }
+    values = hu.data();
+  }
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  vtkMatrix4x4* m = ct->GetIndexToPhysicalMatrix();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      indexToCT.matrix()(r, c) = m->GetElement(r, c);
+  // The CT's extent may not start at 0: fold the extent start into the index mapping.
+  int extent[6];
+  ct->GetExtent(extent);
+  indexToCT = indexToCT * Eigen::Translation3d(extent[0], extent[2], extent[4]);
+  return std::make_unique<xp::AttenuationVolume>(values, Eigen::Vector3i(dims[0], dims[1], dims[2]), indexToCT, muWater);
+}
+
 const xp::AttenuationVolume& vtkXPDRRFilter::Attenuation(vtkImageData* ct)
 {
   if (!this->Volume || ct->GetMTime() != this->VolumeTime || this->MuWater != this->VolumeMuWater)
   {
-    vtkDataArray* scalars = ct->GetPointData()->GetScalars();
-    if (!scalars || scalars->GetNumberOfComponents() != 1)
-    {
-      throw xp::InputError("CT input", "needs one scalar component in HU");
-    }
-    int dims[3];
-    ct->GetDimensions(dims);
-    std::vector<float> hu;
-    const float* values = nullptr;
-    if (scalars->GetDataType() == VTK_FLOAT)
-    {
-      values = static_cast<const float*>(scalars->GetVoidPointer(0));
-    }
-    else
-    {
-      hu.resize(static_cast<size_t>(scalars->GetNumberOfTuples()));
-      for (vtkIdType i = 0; i < scalars->GetNumberOfTuples(); ++i)
-      {
-        hu[i] = static_cast<float>(scalars->GetTuple1(i));
-      }
-      values = hu.data();
-    }
-    Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
-    vtkMatrix4x4* m = ct->GetIndexToPhysicalMatrix();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c)
-        indexToCT.matrix()(r, c) = m->GetElement(r, c);
-    // The CT's extent may not start at 0: fold the extent start into the index mapping.
-    int extent[6];
-    ct->GetExtent(extent);
-    indexToCT = indexToCT * Eigen::Translation3d(extent[0], extent[2], extent[4]);
-    this->Volume = std::make_unique<xp::AttenuationVolume>(values, Eigen::Vector3i(dims[0], dims[1], dims[2]), indexToCT, this->MuWater);
+    this->Volume = xp::MakeAttenuationVolume(ct, this->MuWater);
     this->VolumeTime = ct->GetMTime();
     this->VolumeMuWater = this->MuWater;
   }

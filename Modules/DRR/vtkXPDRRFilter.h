@@ -31,6 +31,15 @@ namespace xp
 class AttenuationVolume;
 }
 
+namespace xp
+{
+/**
+ * The attenuation volume of a CT image (HU, any scalar type), with its index-to-LPS mapping from
+ * the image's origin, spacing, DirectionMatrix and extent. Throws xp::InputError on bad input.
+ */
+VTKXPDRR_EXPORT std::unique_ptr<AttenuationVolume> MakeAttenuationVolume(vtkImageData* ct, double muWater);
+}
+
 class VTKXPDRR_EXPORT vtkXPDRRFilter : public vtkImageAlgorithm
 {
 public:
