@@ -1,12 +1,15 @@
 #include "xpCommands.h"
 #include "xpDRRSetup.h"
 
+#include "vtkXPDRRFilter.h"
+
 #include "xpAttenuationVolume.h"
 #include "xpEntropyMask.h"
 #include "xpError.h"
 #include "xpImageIO.h"
 #include "xpPoseOptimizer.h"
 #include "xpPreAlignment.h"
+#include "xpStereoRegistration.h"
 #include "xpStereoSimilarity.h"
 
 #include <vtkDataArray.h>
@@ -44,30 +47,6 @@ std::vector<T> TopRowFirst(vtkImageData* image)
   for (int row = 0; row < dims[1]; ++row)
     std::copy(in + static_cast<size_t>(dims[1] - 1 - row) * dims[0], in + static_cast<size_t>(dims[1] - row) * dims[0],
       out.begin() + static_cast<size_t>(row) * dims[0]);
-  return out;
-}
-
-/** Box-averages a columns x rows image by an integer factor (the registration resolution). */
-template <typename T>
-std::vector<T> Shrink(const std::vector<T>& in, int columns, int factor, bool anyValid = false)
-{
-  const int rows = static_cast<int>(in.size() / columns), outColumns = columns / factor, outRows = rows / factor;
-  std::vector<T> out(static_cast<size_t>(outColumns) * outRows);
-  for (int r = 0; r < outRows; ++r)
-    for (int c = 0; c < outColumns; ++c)
-    {
-      double sum = 0.0;
-      bool all = true;
-      for (int y = 0; y < factor; ++y)
-        for (int x = 0; x < factor; ++x)
-        {
-          const T v = in[static_cast<size_t>(r * factor + y) * columns + c * factor + x];
-          sum += v;
-          all = all && v;
-        }
-      out[static_cast<size_t>(r) * outColumns + c] =
-        anyValid ? static_cast<T>(all ? 1 : 0) : static_cast<T>(std::lround(sum / (factor * factor)));
-    }
   return out;
 }
 
@@ -146,11 +125,12 @@ int RunRegister(const RegisterOptions& options)
     }
     RegistrationView item;
     item.view = panels[v].Resampled(panels[v].Columns() / factor, panels[v].Rows() / factor);
-    item.xray = Shrink(TopRowFirst<uint16_t>(xray), dims[0], factor);
+    item.xray = factor > 1 ? ShrinkImage(TopRowFirst<uint16_t>(xray), dims[0], factor) : TopRowFirst<uint16_t>(xray);
     std::vector<uint8_t> roi;
     if (!options.rois.empty())
     {
-      roi = Shrink(TopRowFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1])), dims[0], factor, true);
+      roi = TopRowFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1]));
+      roi = factor > 1 ? ShrinkMask(roi, dims[0], factor) : roi;
     }
     rois.push_back(roi);
     views.push_back(std::move(item));
@@ -159,10 +139,9 @@ int RunRegister(const RegisterOptions& options)
   std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), views.size(),
     views[0].view.Columns(), views[0].view.Rows(), readSeconds);
 
-  // --- attenuation volume and planned set-up ---
+  // --- the method (Modules/Registration) ---
   vtkImageData* ct = setup.ct.image;
-  const std::unique_ptr<AttenuationVolume> attenuation = MakeAttenuationVolume(ct, options.muWater);
-  const AttenuationVolume& volume = *attenuation;
+  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(ct, options.muWater);
   Eigen::Vector3d isoInCT;
   if (options.isocenterInCT.empty())
     ImageCenter(ct, isoInCT.data());
@@ -171,165 +150,47 @@ int RunRegister(const RegisterOptions& options)
   const Eigen::Vector3d& roomIso = setup.geometry.isocenter;
   const Eigen::Isometry3d planned =
     PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), isoInCT, roomIso);
-
-  // Coarse stages run at half resolution (a quarter of the rays) when the images allow it.
-  const bool pyramid = views[0].view.Columns() >= 256 && views[0].view.Rows() >= 192;
-  const auto halfOf = [&](const RegistrationView& item)
-  {
-    RegistrationView small;
-    small.view = item.view.Resampled(item.view.Columns() / 2, item.view.Rows() / 2);
-    small.xray = Shrink(item.xray, item.view.Columns(), 2);
-    small.mask = item.mask.empty() ? item.mask : Shrink(item.mask, item.view.Columns(), 2, true);
-    return small;
-  };
-
-  // --- pre-alignment (5+1 DOF), user ROIs only ---
-  const Clock::time_point prealignStart = Clock::now();
-  std::vector<RegistrationView> roiViews;
   for (size_t v = 0; v < views.size(); ++v)
-  {
-    RegistrationView item = views[v];
-    item.mask = rois[v];
-    roiViews.push_back(pyramid ? halfOf(item) : item);
-  }
-  StereoSimilarity coarse(volume, planned, roomIso, roiViews, options.bins);
-  const PreAlignmentResult prealigned = PreAlign(coarse, Pose{}, roomIso);
-  const double prealignSeconds = Since(prealignStart);
-  std::printf("pre-alignment at %dx%d: %s, %d iterations, %lld DRRs (%.2f s)\n", roiViews[0].view.Columns(),
-    roiViews[0].view.Rows(), prealigned.pose.ToString().c_str(), prealigned.iterations, prealigned.drrs, prealignSeconds);
-
-  // --- masks: block entropy of each X-ray AND its ROI, transferred into the DRR plane ---
-  const Clock::time_point maskStart = Clock::now();
-  std::vector<EntropyMaskResult> entropy(views.size());
-  for (size_t v = 0; v < views.size(); ++v)
-  {
-    const int columns = views[v].view.Columns(), rows = views[v].view.Rows();
-    std::vector<uint8_t> mask;
-    if (options.entropyMask)
-    {
-      entropy[v] = ComputeEntropyMask(views[v].xray.data(), columns, rows, rois[v].empty() ? nullptr : rois[v].data());
-      mask = entropy[v].mask;
-    }
-    else
-    {
-      mask = rois[v].empty() ? std::vector<uint8_t>(views[v].xray.size(), 1) : rois[v];
-    }
-    views[v].mask = TransferMask(mask, views[v].view, views[v].view);
-    if (std::count(views[v].mask.begin(), views[v].mask.end(), 1) == 0)
-    {
-      throw InputError(options.xrays[v], "the validity mask is empty: nothing left to register");
-    }
-  }
-  const double maskSeconds = Since(maskStart);
-
-  // --- 6-DOF fine alignment over both views with masked DRRs, coarse to fine ---
-  const Clock::time_point fineStart = Clock::now();
-  Pose startPose = prealigned.pose;
-  int evaluations = 0;
-  long long coarseDRRs = 0;
-  if (pyramid)
-  {
-    // Half resolution first: a quarter of the rays per evaluation for most of the simplex's travel.
-    std::vector<RegistrationView> half;
-    for (const RegistrationView& item : views)
-      half.push_back(halfOf(item));
-    StereoSimilarity halfSimilarity(volume, planned, roomIso, half, options.bins);
-    PoseOptimizerSettings halfSettings;
-    halfSettings.initialStepMM = 1.0;
-    halfSettings.initialStepDegrees = 0.5;
-    halfSettings.toleranceMM = 0.1;
-    halfSettings.toleranceDegrees = 0.05;
-    halfSettings.maxEvaluations = options.maxEvaluations;
-    const PoseOptimizerResult halfResult =
-      MaximizePose([&](const Pose& p) { return halfSimilarity.Evaluate(p); }, startPose, halfSettings);
-    startPose = halfResult.pose;
-    evaluations += halfResult.evaluations;
-    std::printf("fine 6-DOF at %dx%d: %s, %d evaluations (%.2f s)\n", half[0].view.Columns(), half[0].view.Rows(),
-      halfResult.pose.ToString().c_str(), halfResult.evaluations, Since(fineStart));
-    coarseDRRs = halfSimilarity.RenderedDRRs();
-  }
-  StereoSimilarity fine(volume, planned, roomIso, views, options.bins);
-  PoseOptimizerSettings settings;
-  settings.initialStepMM = coarseDRRs > 0 ? 0.25 : 1.0;
-  settings.initialStepDegrees = coarseDRRs > 0 ? 0.15 : 0.5;
-  settings.toleranceMM = 0.05;      // 0.05 mm and 0.03 degrees: ten times finer than the
-  settings.toleranceDegrees = 0.03; // accuracy asked of the result, at a third of the evaluations
+    views[v].mask = rois[v];
+  StereoRegistrationSettings settings;
+  settings.entropyMask = options.entropyMask;
+  settings.bins = options.bins;
   settings.maxEvaluations = options.maxEvaluations;
-  PoseOptimizerResult result = MaximizePose([&](const Pose& p) { return fine.Evaluate(p); }, startPose, settings);
-  result.evaluations += evaluations;
-  fine.Evaluate(result.pose);
-  const double fineSeconds = Since(fineStart);
-  std::printf("fine 6-DOF: %s, %d evaluations, %s (%.2f s)\n", result.pose.ToString().c_str(), result.evaluations,
-    result.stopReason.c_str(), fineSeconds);
-
-  // --- quality gate ---
-  std::vector<std::string> reasons;
-  if (!result.converged)
-    reasons.push_back("the optimiser did not converge (" + result.stopReason + ")");
-  const Pose correction = result.pose.Inverse();
-  const double maxAngle = std::max({ std::abs(result.pose.pitch), std::abs(result.pose.roll), std::abs(result.pose.yaw) });
-  char limit[160];
-  if (result.pose.translation.cwiseAbs().maxCoeff() > options.maxTranslation)
-  {
-    std::snprintf(limit, sizeof(limit), "the correction exceeds %.1f mm", options.maxTranslation);
-    reasons.push_back(limit);
-  }
-  if (maxAngle > options.maxRotation)
-  {
-    std::snprintf(limit, sizeof(limit), "the correction exceeds %.1f degrees", options.maxRotation);
-    reasons.push_back(limit);
-  }
-  std::vector<double> agreement;
+  settings.maxTranslation = options.maxTranslation;
+  settings.maxRotation = options.maxRotation;
+  settings.minExplained = options.minSimilarity;
+  settings.maxViewResidual = options.maxViewResidual;
+  const StereoRegistrationResult result = RegisterStereo(*volume, planned, roomIso, views, settings);
+  std::printf("pre-alignment: %s, %d iterations (%.2f s)\nmasks: valid fraction", result.prealignment.pose.ToString().c_str(),
+    result.prealignment.iterations, result.prealignSeconds);
   for (size_t v = 0; v < views.size(); ++v)
-  {
-    // How much of the X-ray's information the final DRR explains: MI / H(X-ray), over valid pixels.
-    JointHistogram h(options.bins);
-    h.Compute(views[v].xray.data(), fine.LastDRR(v).data(), static_cast<long long>(views[v].xray.size()),
-      views[v].mask.data(), views[v].mask.data());
-    const double explained = h.FixedEntropy() > 0 ? h.MutualInformation() / h.FixedEntropy() : 0.0;
-    agreement.push_back(explained);
-    if (explained < options.minSimilarity)
-    {
-      char text[160];
-      std::snprintf(text, sizeof(text), "view %s: the final DRR explains %.3f of the X-ray's information (< %.3f)",
-        views[v].view.name.c_str(), explained, options.minSimilarity);
-      reasons.push_back(text);
-    }
-    // A view whose own 2D registration still wants to move disagrees with the 3D result.
-    const Motion2D residual = Register2D(views[v].xray, fine.LastDRR(v), views[v].view.Columns(), views[v].view.Rows(),
-      views[v].view.Project(roomIso), views[v].mask.data(), options.bins);
-    const double shiftMM = residual.shift.norm() * views[v].view.pixelSpacing[0] *
-      (views[v].view.source - roomIso).norm() / views[v].view.SourceToPanelDistance();
-    if (shiftMM > options.maxViewResidual || std::abs(residual.rotation) > 1.0)
-    {
-      char text[160];
-      std::snprintf(text, sizeof(text), "view %s disagrees with the 3D result: residual %.2f mm, %.2f degrees in 2D",
-        views[v].view.name.c_str(), shiftMM, residual.rotation);
-      reasons.push_back(text);
-    }
-  }
-  const bool ok = reasons.empty();
+    std::printf(" %s %.3f", views[v].view.name.c_str(), result.validFraction[v]);
+  std::printf(" (%.2f s)\nfine 6-DOF: %s, %d evaluations (%.2f s)\n", result.maskSeconds, result.misalignment.ToString().c_str(),
+    result.evaluations, result.fineSeconds);
+  const bool ok = result.ok;
+  const std::vector<std::string>& reasons = result.reasons;
+  const Pose& correction = result.correction;
   const double totalSeconds = Since(start);
 
   // --- outputs ---
   StagedOutputDirectory output(options.outputDirectory);
   std::ostringstream json;
-  json << "{\n  \"status\": \"" << (ok ? "ok" : "failed") << "\",\n  \"misalignment\": " << JsonPose(result.pose)
+  json << "{\n  \"status\": \"" << (ok ? "ok" : "failed") << "\",\n  \"misalignment\": " << JsonPose(result.misalignment)
        << ",\n  \"correction\": " << JsonPose(correction)
        << ",\n  \"convention\": \"IEC 61217 fixed; p' = R(p - iso) + iso + t; R = Rz(yaw) Ry(roll) Rx(pitch)\""
        << ",\n  \"similarity\": {";
   for (size_t v = 0; v < views.size(); ++v)
-    json << JsonString(views[v].view.name) << ": " << fine.LastMutualInformation()[v] << ", ";
-  json << "\"objective\": " << result.value << "},\n  \"explained_information\": {";
+    json << JsonString(views[v].view.name) << ": " << result.mutualInformation[v] << ", ";
+  json << "\"objective\": " << result.objective << "},\n  \"explained_information\": {";
   for (size_t v = 0; v < views.size(); ++v)
-    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << agreement[v];
+    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.explained[v];
   json << "},\n  \"mask_valid_fraction\": {";
   for (size_t v = 0; v < views.size(); ++v)
-    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": "
-         << static_cast<double>(std::count(views[v].mask.begin(), views[v].mask.end(), 1)) / views[v].mask.size();
-  json << "},\n  \"drr_count\": " << coarse.RenderedDRRs() + coarseDRRs + fine.RenderedDRRs() << ",\n  \"evaluations\": " << result.evaluations
-       << ",\n  \"timing_s\": {\"read\": " << readSeconds << ", \"prealign\": " << prealignSeconds << ", \"mask\": " << maskSeconds
-       << ", \"fine\": " << fineSeconds << ", \"total\": " << totalSeconds << "},\n  \"reasons\": [";
+    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.validFraction[v];
+  json << "},\n  \"drr_count\": " << result.drrCount << ",\n  \"evaluations\": " << result.evaluations
+       << ",\n  \"timing_s\": {\"read\": " << readSeconds << ", \"prealign\": " << result.prealignSeconds
+       << ", \"mask\": " << result.maskSeconds << ", \"fine\": " << result.fineSeconds << ", \"total\": " << totalSeconds
+       << "},\n  \"reasons\": [";
   for (size_t r = 0; r < reasons.size(); ++r)
     json << (r ? ", " : "") << JsonString(reasons[r]);
   json << "]\n}\n";
@@ -337,14 +198,14 @@ int RunRegister(const RegisterOptions& options)
   for (size_t v = 0; v < views.size(); ++v)
   {
     const int columns = views[v].view.Columns(), rows = views[v].view.Rows();
-    std::vector<uint8_t> mask255(views[v].mask.size());
-    std::transform(views[v].mask.begin(), views[v].mask.end(), mask255.begin(), [](uint8_t m) { return m ? 255 : 0; });
+    std::vector<uint8_t> mask255(result.masks[v].size());
+    std::transform(result.masks[v].begin(), result.masks[v].end(), mask255.begin(), [](uint8_t m) { return m ? 255 : 0; });
     WritePNG(ToVTK(mask255, columns, rows, VTK_UNSIGNED_CHAR), output.Path("mask_" + views[v].view.name + ".png"));
-    WritePNG(ToVTK(fine.LastDRR(v), columns, rows, VTK_UNSIGNED_SHORT), output.Path("drr_" + views[v].view.name + ".png"));
-    if (options.entropyMask)
+    WritePNG(ToVTK(result.drrs[v], columns, rows, VTK_UNSIGNED_SHORT), output.Path("drr_" + views[v].view.name + ".png"));
+    if (!result.entropyMaps.empty())
     {
-      std::vector<uint8_t> map(entropy[v].entropy.size());
-      std::transform(entropy[v].entropy.begin(), entropy[v].entropy.end(), map.begin(),
+      std::vector<uint8_t> map(result.entropyMaps[v].size());
+      std::transform(result.entropyMaps[v].begin(), result.entropyMaps[v].end(), map.begin(),
         [](float h) { return static_cast<uint8_t>(std::lround(255.0 * std::clamp(h, 0.0f, 1.0f))); });
       WritePNG(ToVTK(map, columns, rows, VTK_UNSIGNED_CHAR), output.Path("entropy_" + views[v].view.name + ".png"));
     }
@@ -353,8 +214,8 @@ int RunRegister(const RegisterOptions& options)
 
   std::printf("\n%s\nmisalignment: %s\ncorrection:   %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); apply the "
               "correction to the table only when status is ok)\nDRRs: %lld, evaluations: %d, total %.2f s; result.json in %s\n",
-    ok ? "status: ok" : "status: FAILED", result.pose.ToString().c_str(), correction.ToString().c_str(),
-    coarse.RenderedDRRs() + coarseDRRs + fine.RenderedDRRs(), result.evaluations, totalSeconds, options.outputDirectory.c_str());
+    ok ? "status: ok" : "status: FAILED", result.misalignment.ToString().c_str(), correction.ToString().c_str(),
+    result.drrCount, result.evaluations, totalSeconds, options.outputDirectory.c_str());
   for (const std::string& reason : reasons)
     std::printf("  reason: %s\n", reason.c_str());
   return ok ? ExitOk : ExitRegistrationFailed;

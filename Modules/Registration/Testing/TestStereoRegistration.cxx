@@ -133,3 +133,49 @@ TEST(PreAlignment, BringsALargeMisalignmentIntoTheFineRange)
     result.pose.ToString().c_str(), result.iterations, result.drrs, remaining);
   EXPECT_LT(remaining, 3.0) << "from " << truth.translation.norm() << " mm";
 }
+
+#include "vtkXPStereoRegistrationFilter.h"
+
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+
+TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("-4,2,3,-1,1.5,-2", "truth");
+  const std::vector<xp::RegistrationView> simulated = Simulate(scene, truth, 4);
+  vtkNew<vtkImageData> ct;
+  ct->SetDimensions(scene.ct.dimensions.data());
+  ct->SetSpacing(scene.ct.spacing.data());
+  ct->SetOrigin(scene.ct.origin.data());
+  vtkNew<vtkFloatArray> hu;
+  hu->SetNumberOfValues(static_cast<vtkIdType>(scene.ct.hounsfield.size()));
+  std::copy(scene.ct.hounsfield.begin(), scene.ct.hounsfield.end(), hu->GetPointer(0));
+  ct->GetPointData()->SetScalars(hu);
+
+  vtkNew<vtkXPStereoRegistrationFilter> registration;
+  registration->SetInputData(0, ct);
+  xp::StereoGeometry geometry;
+  for (int v = 0; v < 2; ++v)
+  {
+    geometry.views.push_back(simulated[v].view);
+    vtkNew<vtkImageData> xray; // VTK rows run up: detector row r goes to VTK row rows-1-r
+    xray->SetDimensions(160, 120, 1);
+    xray->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+    auto* p = static_cast<uint16_t*>(xray->GetScalarPointer());
+    for (int r = 0; r < 120; ++r)
+      std::copy(simulated[v].xray.begin() + r * 160, simulated[v].xray.begin() + (r + 1) * 160, p + (119 - r) * 160);
+    registration->SetInputData(1 + v, xray);
+  }
+  registration->SetGeometry(geometry);
+  registration->Update();
+  const xp::StereoRegistrationResult& result = registration->GetResult();
+  EXPECT_TRUE(result.ok) << (result.reasons.empty() ? "" : result.reasons.front());
+  EXPECT_LT((result.misalignment.translation - truth.translation).norm(), 0.5);
+  EXPECT_NEAR(result.misalignment.yaw, -2.0, 0.3);
+  EXPECT_NEAR(result.correction.translation[0], 4.0, 0.6) << "correction undoes a -4 mm lateral shift";
+  EXPECT_EQ(registration->GetOutput(0)->GetScalarType(), VTK_UNSIGNED_SHORT);
+  EXPECT_EQ(registration->GetOutput(2)->GetDimensions()[0], 160);
+}

@@ -1,0 +1,202 @@
+#include "xpStereoRegistration.h"
+
+#include "xpError.h"
+#include "xpPoseOptimizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace xp
+{
+
+namespace
+{
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point start)
+{
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+template <typename T, typename Combine>
+std::vector<T> Shrink(const std::vector<T>& in, int columns, int factor, Combine combine)
+{
+  const int rows = static_cast<int>(in.size() / columns), outColumns = columns / factor, outRows = rows / factor;
+  std::vector<T> out(static_cast<size_t>(outColumns) * outRows);
+  std::vector<T> block(static_cast<size_t>(factor) * factor);
+  for (int r = 0; r < outRows; ++r)
+    for (int c = 0; c < outColumns; ++c)
+    {
+      for (int y = 0; y < factor; ++y)
+        for (int x = 0; x < factor; ++x)
+          block[static_cast<size_t>(y) * factor + x] = in[static_cast<size_t>(r * factor + y) * columns + c * factor + x];
+      out[static_cast<size_t>(r) * outColumns + c] = combine(block);
+    }
+  return out;
+}
+
+RegistrationView Half(const RegistrationView& item)
+{
+  RegistrationView half;
+  half.view = item.view.Resampled(item.view.Columns() / 2, item.view.Rows() / 2);
+  half.xray = ShrinkImage(item.xray, item.view.Columns(), 2);
+  half.mask = item.mask.empty() ? item.mask : ShrinkMask(item.mask, item.view.Columns(), 2);
+  return half;
+}
+
+std::string Format(const char* format, double a, double b = 0.0, double c = 0.0)
+{
+  char text[200];
+  std::snprintf(text, sizeof(text), format, a, b, c);
+  return text;
+}
+
+} // namespace
+
+std::vector<uint16_t> ShrinkImage(const std::vector<uint16_t>& image, int columns, int factor)
+{
+  return Shrink(image, columns, factor, [](const std::vector<uint16_t>& b)
+    {
+      double sum = 0.0;
+      for (uint16_t v : b)
+        sum += v;
+      return static_cast<uint16_t>(std::lround(sum / b.size()));
+    });
+}
+
+std::vector<uint8_t> ShrinkMask(const std::vector<uint8_t>& mask, int columns, int factor)
+{
+  return Shrink(mask, columns, factor,
+    [](const std::vector<uint8_t>& b) { return static_cast<uint8_t>(std::all_of(b.begin(), b.end(), [](uint8_t v) { return v != 0; })); });
+}
+
+StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
+  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings)
+{
+  if (views.size() < 2)
+  {
+    throw InputError("registration", "a stereo registration needs at least two views");
+  }
+  StereoRegistrationResult result;
+  const bool pyramid = settings.pyramid && views[0].view.Columns() >= 256 && views[0].view.Rows() >= 192;
+
+  // 1. Pre-alignment (5+1 DOF) with the user ROIs only.
+  Clock::time_point start = Clock::now();
+  std::vector<RegistrationView> coarseViews;
+  for (const RegistrationView& item : views)
+    coarseViews.push_back(pyramid ? Half(item) : item);
+  StereoSimilarity coarse(volume, plannedCTToRoom, isocenter, coarseViews, settings.bins);
+  result.prealignment = PreAlign(coarse, Pose{}, isocenter);
+  result.drrCount += coarse.RenderedDRRs();
+  result.prealignSeconds = Since(start);
+
+  // 2. Entropy masks AND ROIs, transferred into the DRR planes.
+  start = Clock::now();
+  std::vector<RegistrationView> masked = views;
+  for (size_t v = 0; v < views.size(); ++v)
+  {
+    const RegistrationView& item = views[v];
+    const uint8_t* roi = item.mask.empty() ? nullptr : item.mask.data();
+    std::vector<uint8_t> mask;
+    if (settings.entropyMask)
+    {
+      EntropyMaskResult entropy = ComputeEntropyMask(item.xray.data(), item.view.Columns(), item.view.Rows(), roi);
+      mask = std::move(entropy.mask);
+      result.entropyMaps.push_back(std::move(entropy.entropy));
+    }
+    else
+    {
+      mask = roi ? item.mask : std::vector<uint8_t>(item.xray.size(), 1);
+    }
+    masked[v].mask = TransferMask(mask, item.view, item.view);
+    const long long valid = std::count(masked[v].mask.begin(), masked[v].mask.end(), 1);
+    if (valid == 0)
+    {
+      throw InputError("view " + item.view.name, "the validity mask is empty: nothing left to register");
+    }
+    result.validFraction.push_back(static_cast<double>(valid) / masked[v].mask.size());
+  }
+  result.maskSeconds = Since(start);
+
+  // 3. 6-DOF fine alignment with masked DRRs, half resolution first.
+  start = Clock::now();
+  Pose pose = result.prealignment.pose;
+  PoseOptimizerSettings fineSettings;
+  fineSettings.maxEvaluations = settings.maxEvaluations;
+  if (pyramid)
+  {
+    std::vector<RegistrationView> half;
+    for (const RegistrationView& item : masked)
+      half.push_back(Half(item));
+    StereoSimilarity halfSimilarity(volume, plannedCTToRoom, isocenter, half, settings.bins);
+    PoseOptimizerSettings halfSettings = fineSettings;
+    halfSettings.initialStepMM = 1.0;
+    halfSettings.initialStepDegrees = 0.5;
+    halfSettings.toleranceMM = 0.1;
+    halfSettings.toleranceDegrees = 0.05;
+    const PoseOptimizerResult halfResult =
+      MaximizePose([&](const Pose& p) { return halfSimilarity.Evaluate(p); }, pose, halfSettings);
+    pose = halfResult.pose;
+    result.evaluations += halfResult.evaluations;
+    result.drrCount += halfSimilarity.RenderedDRRs();
+    fineSettings.initialStepMM = 0.25;
+    fineSettings.initialStepDegrees = 0.15;
+  }
+  else
+  {
+    fineSettings.initialStepMM = 1.0;
+    fineSettings.initialStepDegrees = 0.5;
+  }
+  // 0.05 mm and 0.03 degrees: ten times finer than the accuracy asked of the result.
+  fineSettings.toleranceMM = 0.05;
+  fineSettings.toleranceDegrees = 0.03;
+  StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins);
+  const PoseOptimizerResult fineResult = MaximizePose([&](const Pose& p) { return fine.Evaluate(p); }, pose, fineSettings);
+  result.objective = fine.Evaluate(fineResult.pose);
+  result.evaluations += fineResult.evaluations;
+  result.drrCount += fine.RenderedDRRs();
+  result.converged = fineResult.converged;
+  result.misalignment = fineResult.pose;
+  result.correction = fineResult.pose.Inverse();
+  result.mutualInformation = fine.LastMutualInformation();
+  result.fineSeconds = Since(start);
+
+  // 4. Quality gate.
+  if (!fineResult.converged)
+    result.reasons.push_back("the optimiser did not converge (" + fineResult.stopReason + ")");
+  const Pose& m = result.misalignment;
+  if (m.translation.cwiseAbs().maxCoeff() > settings.maxTranslation)
+    result.reasons.push_back(Format("the correction exceeds %.1f mm", settings.maxTranslation));
+  if (std::max({ std::abs(m.pitch), std::abs(m.roll), std::abs(m.yaw) }) > settings.maxRotation)
+    result.reasons.push_back(Format("the correction exceeds %.1f degrees", settings.maxRotation));
+  JointHistogram histogram(settings.bins);
+  for (size_t v = 0; v < masked.size(); ++v)
+  {
+    const RegistrationView& item = masked[v];
+    result.drrs.push_back(fine.LastDRR(v));
+    result.masks.push_back(item.mask);
+    // How much of the X-ray's information the final DRR explains, over the valid pixels.
+    histogram.Compute(item.xray.data(), fine.LastDRR(v).data(), static_cast<long long>(item.xray.size()),
+      item.mask.data(), item.mask.data());
+    const double explained = histogram.FixedEntropy() > 0 ? histogram.MutualInformation() / histogram.FixedEntropy() : 0.0;
+    result.explained.push_back(explained);
+    if (explained < settings.minExplained)
+      result.reasons.push_back("view " + item.view.name +
+        Format(": the final DRR explains %.3f of the X-ray's information (< %.3f)", explained, settings.minExplained));
+    // A view whose own 2D registration still wants to move disagrees with the 3D result.
+    const Motion2D residual = Register2D(item.xray, fine.LastDRR(v), item.view.Columns(), item.view.Rows(),
+      item.view.Project(isocenter), item.mask.data(), settings.bins);
+    const double shiftMM = residual.shift.norm() * item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() /
+      item.view.SourceToPanelDistance();
+    if (shiftMM > settings.maxViewResidual || std::abs(residual.rotation) > 1.0)
+      result.reasons.push_back("view " + item.view.name +
+        Format(" disagrees with the 3D result: residual %.2f mm, %.2f degrees in 2D", shiftMM, residual.rotation));
+  }
+  result.ok = result.reasons.empty();
+  return result;
+}
+
+} // namespace xp

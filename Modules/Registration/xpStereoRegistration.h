@@ -1,0 +1,69 @@
+/**
+ * @file xpStereoRegistration.h
+ * @brief The whole method of METHOD.md on prepared inputs: pre-alignment, entropy masks,
+ *        6-DOF masked mutual-information alignment (coarse to fine) and the quality gate.
+ */
+#ifndef xpStereoRegistration_h
+#define xpStereoRegistration_h
+
+#include "vtkXPRegistrationModule.h"
+
+#include "xpEntropyMask.h"
+#include "xpPreAlignment.h"
+#include "xpStereoSimilarity.h"
+
+#include <string>
+#include <vector>
+
+namespace xp
+{
+
+struct StereoRegistrationSettings
+{
+  bool entropyMask = true;       ///< exclude low-information regions (METHOD.md step 3)
+  bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
+  int bins = 32;                 ///< MI histogram bins
+  int maxEvaluations = 400;      ///< per 6-DOF stage
+  double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
+  double maxRotation = 10.0;     ///< gate: and degrees
+  double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
+  double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
+};
+
+struct StereoRegistrationResult
+{
+  bool ok = false;
+  std::vector<std::string> reasons;  ///< why the gate failed; empty when ok
+  Pose misalignment;
+  Pose correction;                   ///< misalignment.Inverse(): what the table should do
+  PreAlignmentResult prealignment;
+  double objective = 0.0;
+  std::vector<double> mutualInformation; ///< per view at the result
+  std::vector<double> explained;         ///< MI / H(X-ray) per view
+  std::vector<double> validFraction;     ///< of each mask
+  std::vector<std::vector<uint8_t>> masks;     ///< the masks used, in the DRR planes
+  std::vector<std::vector<float>> entropyMaps; ///< empty without entropy masks
+  std::vector<std::vector<uint16_t>> drrs;     ///< masked 12-bit DRRs at the result
+  long long drrCount = 0;
+  int evaluations = 0;
+  bool converged = false;
+  double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
+};
+
+/**
+ * Registers a CT to stereo X-rays. `views` carry the X-rays (12-bit, row 0 first) and, in
+ * `mask`, the user ROIs (empty = whole image). Misalignments act about `isocenter` after
+ * `plannedCTToRoom`. Throws xp::InputError when a mask leaves nothing to register.
+ */
+VTKXPREGISTRATION_EXPORT StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume,
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
+  const StereoRegistrationSettings& settings = {});
+
+/** Box average by an integer factor of a columns-wide image; for masks, a pixel is valid only
+ *  when all it covers are. */
+VTKXPREGISTRATION_EXPORT std::vector<uint16_t> ShrinkImage(const std::vector<uint16_t>& image, int columns, int factor);
+VTKXPREGISTRATION_EXPORT std::vector<uint8_t> ShrinkMask(const std::vector<uint8_t>& mask, int columns, int factor);
+
+} // namespace xp
+
+#endif
