@@ -179,3 +179,84 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
   EXPECT_EQ(registration->GetOutput(0)->GetScalarType(), VTK_UNSIGNED_SHORT);
   EXPECT_EQ(registration->GetOutput(2)->GetDimensions()[0], 160);
 }
+
+namespace
+{
+
+/** X-rays with kV contrast (bone +40 % above 100 HU, water 6 % denser) and quantum noise. */
+std::vector<xp::RegistrationView> SimulateKV(const Scene& scene, const xp::Pose& truth, unsigned seed, int columns, int rows)
+{
+  std::vector<float> hu = scene.ct.hounsfield;
+  for (float& v : hu)
+    v = v > 100.0f ? 100.0f + 1.4f * (v - 100.0f) : v;
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  indexToCT.linear() = scene.ct.direction * scene.ct.spacing.asDiagonal();
+  indexToCT.translation() = scene.ct.origin;
+  const xp::AttenuationVolume kv(hu.data(), scene.ct.dimensions, indexToCT, 0.0205);
+  std::mt19937 random(seed);
+  std::normal_distribution<double> gaussian(0.0, 1.0);
+  std::vector<xp::RegistrationView> views;
+  for (const xp::XRayView& view : StereoViews(columns, rows))
+  {
+    xp::RegistrationView item;
+    item.view = view;
+    std::vector<float> integral(static_cast<size_t>(columns) * rows);
+    xp::RenderLineIntegrals(kv, xp::MisalignedCTToRoom(scene.planned, truth, Eigen::Vector3d::Zero()), view.source,
+      xp::DetectorGrid::TopRowFirst(view), nullptr, integral.data());
+    item.xray.resize(integral.size());
+    for (size_t i = 0; i < integral.size(); ++i)
+    {
+      const double grey = 0.97 * 4095.0 * std::exp(-integral[i]) + 0.03 * 1024.0;
+      item.xray[i] = static_cast<uint16_t>(std::clamp(std::lround(grey + 20.0 * std::sqrt(grey / 4095.0) * gaussian(random)), 0L, 4095L));
+    }
+    views.push_back(std::move(item));
+  }
+  return views;
+}
+
+/** Seeded misalignments: translations up to `mm` per axis, rotations up to `degrees`. */
+xp::Pose RandomPose(std::mt19937& random, double mm, double degrees)
+{
+  std::uniform_real_distribution<double> t(-mm, mm), r(-degrees, degrees);
+  xp::Pose pose;
+  pose.translation = { t(random), t(random), t(random) };
+  pose.pitch = r(random);
+  pose.roll = r(random);
+  pose.yaw = r(random);
+  return pose;
+}
+
+/** Registers `cases` seeded misalignments; returns how many meet 0.5 mm and 0.2 degrees per axis. */
+int AccurateCases(const Scene& scene, int cases, double mm, double degrees, unsigned seed)
+{
+  std::mt19937 random(seed);
+  int accurate = 0;
+  for (int k = 0; k < cases; ++k)
+  {
+    const xp::Pose truth = RandomPose(random, mm, degrees);
+    const xp::StereoRegistrationResult result = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(),
+      SimulateKV(scene, truth, seed + k, 256, 192));
+    const xp::Pose& m = result.misalignment;
+    const double translation = (m.translation - truth.translation).cwiseAbs().maxCoeff();
+    const double rotation = std::max({ std::abs(m.pitch - truth.pitch), std::abs(m.roll - truth.roll), std::abs(m.yaw - truth.yaw) });
+    const bool good = result.ok && translation <= 0.5 && rotation <= 0.2;
+    accurate += good;
+    std::printf("case %d: truth %s -> error %.3f mm, %.3f deg, %s%s\n", k, truth.ToString().c_str(), translation, rotation,
+      result.ok ? "ok" : "failed", good ? "" : "  <-- outside 0.5 mm / 0.2 deg");
+  }
+  return accurate;
+}
+
+} // namespace
+
+TEST(StereoRegistrationAcceptance, UpTo10mmAnd3DegreesAllCasesAccurate)
+{
+  Scene scene;
+  EXPECT_EQ(AccurateCases(scene, 4, 10.0, 3.0, 100), 4);
+}
+
+TEST(StereoRegistrationAcceptance, UpTo20mmAnd5DegreesNineInTen)
+{
+  Scene scene;
+  EXPECT_GE(AccurateCases(scene, 10, 20.0, 5.0, 200), 9);
+}
