@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <vtkDataArray.h>
+#include <Eigen/Core>
 #include <vtkImageData.h>
 #include <vtkNew.h>
 #include <vtkPNGReader.h>
@@ -363,4 +364,35 @@ TEST(Commands, RegisterBadInputExitsWithTwo)
   options.size = "300x200";
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "size";
   EXPECT_FALSE(Exists("cmd-reg-bad"));
+}
+
+TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-obj-sim cmd-obj-masked cmd-obj-unmasked"), 0);
+  xp::SimulateOptions simulate;
+  simulate.ct = PhantomCT();
+  simulate.geometry = Geometry;
+  simulate.pose = "6,4,-5,-2,1.5,2.5";
+  simulate.noise = 20.0;
+  simulate.kvContrast = true;
+  simulate.addObjects = true;
+  simulate.outputDirectory = "cmd-obj-sim";
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  double error[2];
+  for (int masked = 0; masked < 2; ++masked)
+  {
+    xp::RegisterOptions options = RegisterSimulated("cmd-obj-sim", masked ? "cmd-obj-masked" : "cmd-obj-unmasked");
+    options.entropyMask = masked;
+    xp::GuardedRun("register", [&] { return xp::RunRegister(options); });
+    const std::string result = ReadText(options.outputDirectory + "/result.json");
+    double t[3];
+    std::sscanf(result.c_str() + result.find("\"misalignment\": {\"translation_mm\": ["),
+      "\"misalignment\": {\"translation_mm\": [%lf, %lf, %lf]", &t[0], &t[1], &t[2]);
+    error[masked] = (Eigen::Vector3d(t[0], t[1], t[2]) - Eigen::Vector3d(6, 4, -5)).cwiseAbs().maxCoeff();
+    if (masked)
+      EXPECT_NE(result.find("\"status\": \"ok\""), std::string::npos) << result;
+  }
+  std::printf("largest axis error with X-ray-only objects: masked %.3f mm, unmasked %.3f mm\n", error[1], error[0]);
+  EXPECT_LE(error[1], error[0] + 0.05) << "the masked run must be at least as accurate (to 0.05 mm)";
+  EXPECT_LT(error[1], 0.5);
 }
