@@ -37,21 +37,24 @@ double Trampoline(const std::vector<double>& x, std::vector<double>&, void* data
 
 } // namespace
 
-PoseOptimizerResult MaximizePose(
-  const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)
+namespace
+{
+
+/** One Nelder-Mead run from `x` (updated in place). */
+PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const Pose& start,
+  const PoseOptimizerSettings& settings, int evaluationsLeft)
 {
   nlopt::opt optimizer(nlopt::LN_NELDERMEAD, 6);
-  Context context{ &objective };
   optimizer.set_max_objective(Trampoline, &context);
-  std::vector<double> x = { start.translation[0], start.translation[1], start.translation[2], start.pitch, start.roll,
-    start.yaw };
+  const std::vector<double> origin = { start.translation[0], start.translation[1], start.translation[2], start.pitch,
+    start.roll, start.yaw };
   std::vector<double> lower(6), upper(6), step(6), tolerance(6);
   for (int i = 0; i < 6; ++i)
   {
     const bool translation = i < 3;
     const double bound = translation ? settings.boundMM : settings.boundDegrees;
-    lower[i] = x[i] - bound;
-    upper[i] = x[i] + bound;
+    lower[i] = origin[i] - bound;
+    upper[i] = origin[i] + bound;
     step[i] = translation ? settings.initialStepMM : settings.initialStepDegrees;
     tolerance[i] = translation ? settings.toleranceMM : settings.toleranceDegrees;
   }
@@ -59,8 +62,7 @@ PoseOptimizerResult MaximizePose(
   optimizer.set_upper_bounds(upper);
   optimizer.set_initial_step(step);
   optimizer.set_xtol_abs(tolerance);
-  optimizer.set_maxeval(settings.maxEvaluations);
-
+  optimizer.set_maxeval(std::max(1, evaluationsLeft));
   PoseOptimizerResult result;
   try
   {
@@ -80,6 +82,30 @@ PoseOptimizerResult MaximizePose(
   catch (const std::exception& e)
   {
     throw Error("pose optimiser", e.what());
+  }
+  return result;
+}
+
+} // namespace
+
+PoseOptimizerResult MaximizePose(
+  const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)
+{
+  Context context{ &objective };
+  std::vector<double> x = { start.translation[0], start.translation[1], start.translation[2], start.pitch, start.roll,
+    start.yaw };
+  PoseOptimizerResult result = RunSimplex(context, x, start, settings, settings.maxEvaluations);
+  for (int restart = 0; restart < settings.maxRestarts && result.converged; ++restart)
+  {
+    std::vector<double> again = x;
+    const PoseOptimizerResult next = RunSimplex(context, again, start, settings, settings.maxEvaluations - context.evaluations);
+    if (!(next.value > result.value + 1e-9 * std::abs(result.value)))
+    {
+      break; // the restart found nothing better: a true optimum, not a stall
+    }
+    x = again;
+    result = next;
+    result.restarts = restart + 1;
   }
   result.pose = ToPose(x);
   result.evaluations = context.evaluations;

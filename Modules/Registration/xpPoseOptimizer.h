@@ -23,6 +23,9 @@ struct PoseOptimizerSettings
   int maxEvaluations = 300;
   double boundMM = 60.0;            ///< search box around the start
   double boundDegrees = 15.0;
+  /** Fresh simplexes started from the optimum while they still improve it: Nelder-Mead stalls in
+   *  narrow valleys (roll against lateral shift, the direction two views see least). */
+  int maxRestarts = 3;
 };
 
 struct PoseOptimizerResult
@@ -31,6 +34,7 @@ struct PoseOptimizerResult
   double value = 0.0;
   int evaluations = 0;
   bool converged = false;  ///< stopped on the tolerances, not on the evaluation limit
+  int restarts = 0;
   std::string stopReason;
 };
 

@@ -396,3 +396,35 @@ TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
   EXPECT_LE(error[1], error[0] + 0.05) << "the masked run must be at least as accurate (to 0.05 mm)";
   EXPECT_LT(error[1], 0.5);
 }
+
+TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
+{
+  if (!Exists(SharedPelvis))
+  {
+    GTEST_SKIP() << "shared pelvis CT not found at " << SharedPelvis << " (../shared/data beside the project)";
+  }
+  ASSERT_EQ(std::system("rm -rf cmd-pel-sim cmd-pel-reg cmd-pel-other"), 0);
+  xp::SimulateOptions simulate;
+  simulate.ct = SharedPelvis;
+  simulate.geometry = Geometry;
+  simulate.pose = "7,-5,4,2,-1.5,2.5";
+  simulate.noise = 30.0;
+  simulate.kvContrast = true;
+  simulate.addObjects = true;
+  simulate.outputDirectory = "cmd-pel-sim";
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  xp::RegisterOptions options = RegisterSimulated("cmd-pel-sim", "cmd-pel-reg");
+  options.ct = SharedPelvis;
+  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+  const std::string result = ReadText("cmd-pel-reg/result.json");
+  double t[3];
+  std::sscanf(result.c_str() + result.find("\"misalignment\": {\"translation_mm\": ["),
+    "\"misalignment\": {\"translation_mm\": [%lf, %lf, %lf]", &t[0], &t[1], &t[2]);
+  EXPECT_LT((Eigen::Vector3d(t[0], t[1], t[2]) - Eigen::Vector3d(7, -5, 4)).cwiseAbs().maxCoeff(), 0.5) << result;
+  EXPECT_NEAR(JsonNumber(result, "yaw", "\"misalignment\""), 2.5, 0.2);
+
+  // The pelvis X-rays against the head phantom's CT: another patient, so the result must fail.
+  options = RegisterSimulated("cmd-pel-sim", "cmd-pel-other");
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
+  EXPECT_NE(ReadText("cmd-pel-other/result.json").find("\"status\": \"failed\""), std::string::npos);
+}
