@@ -99,13 +99,23 @@ PoseOptimizerResult MaximizePose(
   {
     std::vector<double> again = x;
     const PoseOptimizerResult next = RunSimplex(context, again, start, settings, settings.maxEvaluations - context.evaluations);
-    if (!(next.value > result.value + 1e-9 * std::abs(result.value)))
+    if (!(next.value > result.value))
     {
       break; // the restart found nothing better: a true optimum, not a stall
+    }
+    // Did the fresh simplex escape a stall (move several tolerances), or only polish the optimum?
+    double moved = 0.0;
+    for (int i = 0; i < 6; ++i)
+    {
+      moved = std::max(moved, std::abs(again[i] - x[i]) / (i < 3 ? settings.toleranceMM : settings.toleranceDegrees));
     }
     x = again;
     result = next;
     result.restarts = restart + 1;
+    if (moved < 5.0)
+    {
+      break;
+    }
   }
   result.pose = ToPose(x);
   result.evaluations = context.evaluations;
