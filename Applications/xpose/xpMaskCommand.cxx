@@ -2,6 +2,7 @@
 
 #include "vtkXPEntropyMaskFilter.h"
 #include "xpError.h"
+#include "xpDICOMXRay.h"
 #include "xpImageIO.h"
 
 #include <vtkImageData.h>
@@ -15,7 +16,7 @@ namespace xp
 
 int RunMask(const MaskOptions& options)
 {
-  vtkSmartPointer<vtkImageData> xray = ReadXRayPNG(options.xray);
+  vtkSmartPointer<vtkImageData> xray = ReadXRayImage(options.xray);
   int dims[3];
   xray->GetDimensions(dims);
   vtkSmartPointer<vtkImageData> roi;

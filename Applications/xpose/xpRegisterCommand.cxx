@@ -6,6 +6,7 @@
 #include "xpAttenuationVolume.h"
 #include "xpEntropyMask.h"
 #include "xpError.h"
+#include "xpDICOMXRay.h"
 #include "xpImageIO.h"
 #include "xpPoseOptimizer.h"
 #include "xpPreAlignment.h"
@@ -114,7 +115,7 @@ int RunRegister(const RegisterOptions& options)
   std::vector<std::vector<uint8_t>> rois;
   for (size_t v = 0; v < panels.size(); ++v)
   {
-    vtkSmartPointer<vtkImageData> xray = ReadXRayPNG(options.xrays[v]);
+    vtkSmartPointer<vtkImageData> xray = ReadXRayImage(options.xrays[v]);
     int dims[3];
     xray->GetDimensions(dims);
     if (dims[0] != panels[v].Columns() || dims[1] != panels[v].Rows())
