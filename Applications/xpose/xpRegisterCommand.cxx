@@ -8,6 +8,7 @@
 #include "xpError.h"
 #include "xpDICOMXRay.h"
 #include "xpImageIO.h"
+#include "xpImageRows.h"
 #include "xpPoseOptimizer.h"
 #include "xpPreAlignment.h"
 #include "xpStereoRegistration.h"
@@ -37,31 +38,14 @@ double Since(Clock::time_point start)
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-/** Rows of a VTK image (bottom-up) as a top-row-first vector. */
-template <typename T>
-std::vector<T> TopRowFirst(vtkImageData* image)
-{
-  int dims[3];
-  image->GetDimensions(dims);
-  const T* in = static_cast<const T*>(image->GetScalarPointer());
-  std::vector<T> out(static_cast<size_t>(dims[0]) * dims[1]);
-  for (int row = 0; row < dims[1]; ++row)
-    std::copy(in + static_cast<size_t>(dims[1] - 1 - row) * dims[0], in + static_cast<size_t>(dims[1] - row) * dims[0],
-      out.begin() + static_cast<size_t>(row) * dims[0]);
-  return out;
-}
-
-/** A top-row-first 2D image as VTK image data (bottom-up) for the PNG writer. */
+/** A top-row-first 2D image as VTK image data for the PNG writer. */
 template <typename T>
 vtkSmartPointer<vtkImageData> ToVTK(const std::vector<T>& image, int columns, int rows, int type)
 {
   auto out = vtkSmartPointer<vtkImageData>::New();
   out->SetDimensions(columns, rows, 1);
   out->AllocateScalars(type, 1);
-  T* p = static_cast<T*>(out->GetScalarPointer());
-  for (int row = 0; row < rows; ++row)
-    std::copy(image.begin() + static_cast<size_t>(row) * columns, image.begin() + static_cast<size_t>(row + 1) * columns,
-      p + static_cast<size_t>(rows - 1 - row) * columns);
+  CopyRowsTopFirst(image, out.GetPointer());
   return out;
 }
 
@@ -126,11 +110,11 @@ int RunRegister(const RegisterOptions& options)
     }
     RegistrationView item;
     item.view = panels[v].Resampled(panels[v].Columns() / factor, panels[v].Rows() / factor);
-    item.xray = factor > 1 ? ShrinkImage(TopRowFirst<uint16_t>(xray), dims[0], factor) : TopRowFirst<uint16_t>(xray);
+    item.xray = factor > 1 ? ShrinkImage(RowsTopFirst<uint16_t>(xray), dims[0], factor) : RowsTopFirst<uint16_t>(xray);
     std::vector<uint8_t> roi;
     if (!options.rois.empty())
     {
-      roi = TopRowFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1]));
+      roi = RowsTopFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1]));
       roi = factor > 1 ? ShrinkMask(roi, dims[0], factor) : roi;
     }
     rois.push_back(roi);

@@ -14,6 +14,8 @@
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include "xpImageRows.h"
+
 #include <chrono>
 #include <vector>
 
@@ -105,15 +107,7 @@ int vtkXPDRRFilter::RequestInformation(vtkInformation*, vtkInformationVector**, 
 int vtkXPDRRFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
   // Every ray may cross any part of the CT, and the mask covers the whole panel.
-  for (int port = 0; port < 2; ++port)
-  {
-    if (vtkInformation* info = inputVector[port]->GetInformationObject(0))
-    {
-      int whole[6];
-      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-      info->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
-    }
-  }
+  xp::RequestWholeExtents(inputVector, 2);
   return 1;
 }
 

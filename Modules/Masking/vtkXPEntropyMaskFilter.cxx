@@ -10,6 +10,8 @@
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include "xpImageRows.h"
+
 #include <algorithm>
 #include <string>
 
@@ -50,15 +52,7 @@ int vtkXPEntropyMaskFilter::RequestInformation(vtkInformation*, vtkInformationVe
 int vtkXPEntropyMaskFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
   // Block entropies and H(X) need the whole image.
-  for (int port = 0; port < 2; ++port)
-  {
-    if (vtkInformation* info = inputVector[port]->GetInformationObject(0))
-    {
-      int whole[6];
-      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-      info->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
-    }
-  }
+  xp::RequestWholeExtents(inputVector, 2);
   return 1;
 }
 

@@ -9,6 +9,8 @@
 #include <vtkObjectFactory.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include "xpImageRows.h"
+
 #include <string>
 
 vtkStandardNewMacro(vtkXPMutualInformationMetric);
@@ -43,15 +45,7 @@ int vtkXPMutualInformationMetric::RequestInformation(vtkInformation*, vtkInforma
 
 int vtkXPMutualInformationMetric::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
-  for (int port = 0; port < 4; ++port)
-  {
-    if (vtkInformation* info = inputVector[port]->GetInformationObject(0))
-    {
-      int whole[6];
-      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-      info->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
-    }
-  }
+  xp::RequestWholeExtents(inputVector, 4);
   return 1;
 }
 

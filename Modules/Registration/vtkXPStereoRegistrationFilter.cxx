@@ -9,35 +9,10 @@
 #include <vtkObjectFactory.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include "xpImageRows.h"
+
 vtkStandardNewMacro(vtkXPStereoRegistrationFilter);
 
-namespace
-{
-
-/** VTK rows run up; the kernels keep row 0 first. */
-template <typename T>
-std::vector<T> TopRowFirst(vtkImageData* image)
-{
-  int dims[3];
-  image->GetDimensions(dims);
-  const T* in = static_cast<const T*>(image->GetScalarPointer());
-  std::vector<T> out(static_cast<size_t>(dims[0]) * dims[1]);
-  for (int row = 0; row < dims[1]; ++row)
-    std::copy(in + static_cast<size_t>(dims[1] - 1 - row) * dims[0], in + static_cast<size_t>(dims[1] - row) * dims[0],
-      out.begin() + static_cast<size_t>(row) * dims[0]);
-  return out;
-}
-
-template <typename T>
-void BottomRowFirst(const std::vector<T>& image, int columns, int rows, T scale, vtkImageData* out)
-{
-  T* p = static_cast<T*>(out->GetScalarPointer());
-  for (int row = 0; row < rows; ++row)
-    for (int column = 0; column < columns; ++column)
-      p[static_cast<size_t>(rows - 1 - row) * columns + column] = static_cast<T>(image[static_cast<size_t>(row) * columns + column] * scale);
-}
-
-} // namespace
 
 vtkXPStereoRegistrationFilter::vtkXPStereoRegistrationFilter()
 {
@@ -90,15 +65,7 @@ int vtkXPStereoRegistrationFilter::RequestInformation(
 
 int vtkXPStereoRegistrationFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
-  for (int port = 0; port < 5; ++port)
-  {
-    if (vtkInformation* info = inputVector[port]->GetInformationObject(0))
-    {
-      int whole[6];
-      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
-      info->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
-    }
-  }
+  xp::RequestWholeExtents(inputVector, 5);
   return 1;
 }
 
@@ -133,7 +100,7 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
       }
       xp::RegistrationView item;
       item.view = view;
-      item.xray = TopRowFirst<uint16_t>(xray);
+      item.xray = xp::RowsTopFirst<uint16_t>(xray);
       if (roi)
       {
         int r[3];
@@ -142,7 +109,7 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
         {
           throw xp::InputError("ROI " + view.name, "must be unsigned char with the X-ray's size");
         }
-        item.mask = TopRowFirst<uint8_t>(roi);
+        item.mask = xp::RowsTopFirst<uint8_t>(roi);
         for (uint8_t& m : item.mask)
           m = m ? 1 : 0;
       }
@@ -156,11 +123,10 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
         vtkImageData* out = vtkImageData::GetData(outputVector, 2 * kind + v);
         out->CopyStructure(vtkImageData::GetData(inputVector[1 + v]));
         out->AllocateScalars(kind == 0 ? VTK_UNSIGNED_SHORT : VTK_UNSIGNED_CHAR, 1);
-        const int columns = views[v].view.Columns(), rows = views[v].view.Rows();
         if (kind == 0)
-          BottomRowFirst<uint16_t>(this->Result.drrs[v], columns, rows, 1, out);
+          xp::CopyRowsTopFirst<uint16_t>(this->Result.drrs[v], out);
         else
-          BottomRowFirst<uint8_t>(this->Result.masks[v], columns, rows, 255, out);
+          xp::CopyRowsTopFirst<uint8_t>(this->Result.masks[v], out, 255);
       }
     }
   }
