@@ -175,7 +175,8 @@ int RunRegister(const RegisterOptions& options)
   json << "},\n  \"drr_count\": " << result.drrCount << ",\n  \"evaluations\": " << result.evaluations
        << ",\n  \"timing_s\": {\"read\": " << readSeconds << ", \"prealign\": " << result.prealignSeconds
        << ", \"mask\": " << result.maskSeconds << ", \"fine\": " << result.fineSeconds << ", \"total\": " << totalSeconds
-       << "},\n  \"reasons\": [";
+       << "},\n  \"search_disagreement\": {\"mm\": " << result.searchDisagreementMM
+       << ", \"degrees\": " << result.searchDisagreementDegrees << "},\n  \"reasons\": [";
   for (size_t r = 0; r < reasons.size(); ++r)
     json << (r ? ", " : "") << JsonString(reasons[r]);
   json << "]\n}\n";

@@ -121,34 +121,53 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   }
   result.maskSeconds = Since(start);
 
-  // 3. 6-DOF fine alignment with masked DRRs, half resolution first.
+  // 3. 6-DOF fine alignment with masked DRRs, half resolution first. The coarse search runs twice,
+  // the second time from a start moved along the roll/lateral valley (roll turns about the axis
+  // perpendicular to both central rays, which two views see least): a landscape with two optima
+  // there cannot give a trustworthy result.
   start = Clock::now();
   Pose pose = result.prealignment.pose;
   PoseOptimizerSettings fineSettings;
   fineSettings.maxEvaluations = settings.maxEvaluations;
-  if (pyramid)
+  fineSettings.maxRestarts = 0; // the refinement starts at the coarse optimum
   {
-    std::vector<RegistrationView> half;
+    std::vector<RegistrationView> coarseSearch;
     for (const RegistrationView& item : masked)
-      half.push_back(Half(item));
-    StereoSimilarity halfSimilarity(volume, plannedCTToRoom, isocenter, half, settings.bins);
-    PoseOptimizerSettings halfSettings = fineSettings;
-    halfSettings.initialStepMM = 1.0;
-    halfSettings.initialStepDegrees = 0.5;
-    halfSettings.toleranceMM = 0.1;
-    halfSettings.toleranceDegrees = 0.05;
-    const PoseOptimizerResult halfResult =
-      MaximizePose([&](const Pose& p) { return halfSimilarity.Evaluate(p); }, pose, halfSettings);
-    pose = halfResult.pose;
-    result.evaluations += halfResult.evaluations;
-    result.drrCount += halfSimilarity.RenderedDRRs();
+      coarseSearch.push_back(pyramid ? Half(item) : item);
+    StereoSimilarity searchSimilarity(volume, plannedCTToRoom, isocenter, coarseSearch, settings.bins);
+    PoseOptimizerSettings searchSettings = fineSettings;
+    searchSettings.initialStepMM = 1.0;
+    searchSettings.initialStepDegrees = 0.5;
+    searchSettings.toleranceMM = 0.1;
+    searchSettings.toleranceDegrees = 0.05;
+    searchSettings.maxRestarts = 3; // stalls happen in the long coarse travel; restarts are cheap here
+    const auto objective = [&](const Pose& p) { return searchSimilarity.Evaluate(p); };
+    PoseOptimizerResult first = MaximizePose(objective, pose, searchSettings);
+    result.evaluations += first.evaluations;
+    if (settings.maxSearchDisagreementMM > 0.0)
+    {
+      Pose moved = pose;
+      moved.roll += 1.5;
+      moved.translation[0] += 1.5;
+      const PoseOptimizerResult second = MaximizePose(objective, moved, searchSettings);
+      result.evaluations += second.evaluations;
+      result.searchDisagreementMM = (second.pose.translation - first.pose.translation).cwiseAbs().maxCoeff();
+      result.searchDisagreementDegrees = std::max({ std::abs(second.pose.pitch - first.pose.pitch),
+        std::abs(second.pose.roll - first.pose.roll), std::abs(second.pose.yaw - first.pose.yaw) });
+      if (result.searchDisagreementMM > settings.maxSearchDisagreementMM ||
+        result.searchDisagreementDegrees > settings.maxSearchDisagreementDegrees)
+      {
+        result.reasons.push_back(Format("two searches from starts 1.5 mm / 1.5 degrees apart ended %.2f mm and %.2f degrees "
+                                        "apart: the images do not fix the pose",
+          result.searchDisagreementMM, result.searchDisagreementDegrees));
+      }
+      if (second.value > first.value)
+        first = second;
+    }
+    pose = first.pose;
+    result.drrCount += searchSimilarity.RenderedDRRs();
     fineSettings.initialStepMM = 0.25;
     fineSettings.initialStepDegrees = 0.15;
-  }
-  else
-  {
-    fineSettings.initialStepMM = 1.0;
-    fineSettings.initialStepDegrees = 0.5;
   }
   // 0.05 mm and 0.03 degrees: ten times finer than the accuracy asked of the result.
   fineSettings.toleranceMM = 0.05;

@@ -28,6 +28,10 @@ struct StereoRegistrationSettings
   double maxRotation = 10.0;     ///< gate: and degrees
   double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
+  /** gate: a second coarse search, started 1.5 mm and 1.5 degrees away along the roll/lateral
+   *  valley, must end within these of the first (mm, degrees). 0 mm = no second search. */
+  double maxSearchDisagreementMM = 0.5;
+  double maxSearchDisagreementDegrees = 0.2;
 };
 
 struct StereoRegistrationResult
@@ -47,6 +51,8 @@ struct StereoRegistrationResult
   long long drrCount = 0;
   int evaluations = 0;
   bool converged = false;
+  double searchDisagreementMM = 0.0;     ///< between the two coarse searches
+  double searchDisagreementDegrees = 0.0;
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
 };
 
