@@ -129,7 +129,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   Pose pose = result.prealignment.pose;
   PoseOptimizerSettings fineSettings;
   fineSettings.maxEvaluations = settings.maxEvaluations;
-  fineSettings.maxRestarts = 0; // the refinement starts at the coarse optimum
+  fineSettings.maxRestarts = 1; // one fresh simplex: the valley is flat at full resolution too
   {
     std::vector<RegistrationView> coarseSearch;
     for (const RegistrationView& item : masked)
