@@ -197,8 +197,11 @@ __attribute__((target("avx512f,avx512dq,avx512vl,fma"))) float SamplePlanesPaire
     const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
     const __m256i base = _mm256_add_epi32(
       _mm256_add_epi32(planeBase, _mm256_mullo_epi32(jj, strideA)), _mm256_add_epi32(ib, _mm256_mullo_epi32(ic, strideC)));
-    const __m512i low2 = _mm512_castpd_si512(_mm512_i32gather_pd(base, pairs, 4));
-    const __m512i high2 = _mm512_castpd_si512(_mm512_i32gather_pd(_mm256_add_epi32(base, strideC), pairs, 4));
+    // Masked form with a zero source: the same instruction, without GCC's uninitialised-source warning.
+    const __m512d none = _mm512_setzero_pd();
+    const __m512i low2 = _mm512_castpd_si512(_mm512_mask_i32gather_pd(none, 0xFF, base, pairs, 4));
+    const __m512i high2 =
+      _mm512_castpd_si512(_mm512_mask_i32gather_pd(none, 0xFF, _mm256_add_epi32(base, strideC), pairs, 4));
     const __m256 v00 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(low2));
     const __m256 v10 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(_mm512_srli_epi64(low2, 32)));
     const __m256 v01 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(high2));

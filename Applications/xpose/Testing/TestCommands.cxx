@@ -390,7 +390,9 @@ TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
       "\"misalignment\": {\"translation_mm\": [%lf, %lf, %lf]", &t[0], &t[1], &t[2]);
     error[masked] = (Eigen::Vector3d(t[0], t[1], t[2]) - Eigen::Vector3d(6, 4, -5)).cwiseAbs().maxCoeff();
     if (masked)
+    {
       EXPECT_NE(result.find("\"status\": \"ok\""), std::string::npos) << result;
+    }
   }
   std::printf("largest axis error with X-ray-only objects: masked %.3f mm, unmasked %.3f mm\n", error[1], error[0]);
   EXPECT_LE(error[1], error[0] + 0.05) << "the masked run must be at least as accurate (to 0.05 mm)";
