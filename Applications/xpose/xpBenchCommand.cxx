@@ -3,6 +3,7 @@
 
 #include "xpAttenuationVolume.h"
 #include "xpError.h"
+#include "xpImageGeometry.h"
 #include "xpPose.h"
 #include "xpRayCaster.h"
 
@@ -94,9 +95,7 @@ int RunBenchDRR(const BenchOptions& options)
   const Clock::time_point prepare = Clock::now();
   Scene scene{ std::move(*MakeAttenuationVolume(ct, 0.0193)), Eigen::Isometry3d::Identity(), setup.geometry.views };
   const double prepareSeconds = std::chrono::duration<double>(Clock::now() - prepare).count();
-  double center[3];
-  ImageCenter(ct, center);
-  scene.ctToRoom = PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), Eigen::Vector3d(center),
+  scene.ctToRoom = PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), ImageCenter(ct),
     setup.geometry.isocenter);
 
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

@@ -9,6 +9,8 @@
 #ifndef xpCommands_h
 #define xpCommands_h
 
+#include <Eigen/Core>
+
 #include <functional>
 #include <string>
 #include <vector>
@@ -98,7 +100,7 @@ struct RegisterOptions
   int maxEvaluations = 400;
   double maxTranslation = 50.0;     ///< quality gate: largest correction accepted (mm)
   double maxRotation = 10.0;        ///< and degrees
-  double minSimilarity = 0.15;      ///< MI / H(X-ray) a view must reach at the result
+  double minExplained = 0.15;       ///< MI / H(X-ray) a view must reach at the result
   double maxViewResidual = 1.0;     ///< mm a view's own 2D registration may still want to move
   int threads = 0;
   std::string outputDirectory;
@@ -120,6 +122,9 @@ std::pair<int, int> ParseSize(const std::string& text, const std::string& field)
 
 /** {"translation_mm": [...], "rotation_deg": {"pitch": .., "roll": .., "yaw": ..}} */
 std::string JsonPose(const Pose& pose);
+
+/** "x,y,z" -> a point in mm; throws xp::InputError naming `field`. */
+Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field);
 
 /** Sets the number of threads used by every parallel kernel (0 = all cores). */
 void UseThreads(int threads);

@@ -23,18 +23,6 @@ namespace xp
 namespace
 {
 
-Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field)
-{
-  Eigen::Vector3d p;
-  char c1 = 0, c2 = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf%c", &p[0], &c1, &p[1], &c2, &p[2], &extra) != 5 || c1 != ',' ||
-    c2 != ',' || !p.allFinite())
-  {
-    throw InputError(field, "expected x,y,z in mm, got '" + text + "'");
-  }
-  return p;
-}
-
 /** exp(-integral) as float, 0 where not traced, on the filter's grid. */
 vtkSmartPointer<vtkImageData> Transmission(vtkImageData* lineIntegral, vtkImageData* valid)
 {

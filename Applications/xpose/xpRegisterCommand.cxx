@@ -4,19 +4,14 @@
 #include "vtkXPDRRFilter.h"
 
 #include "xpAttenuationVolume.h"
-#include "xpEntropyMask.h"
 #include "xpError.h"
 #include "xpDICOMXRay.h"
 #include "xpImageIO.h"
 #include "xpImageRows.h"
-#include "xpPoseOptimizer.h"
-#include "xpPreAlignment.h"
+#include "xpImageGeometry.h"
 #include "xpStereoRegistration.h"
-#include "xpStereoSimilarity.h"
 
-#include <vtkDataArray.h>
 #include <vtkImageData.h>
-#include <vtkMatrix4x4.h>
 #include <vtkPointData.h>
 
 #include <chrono>
@@ -127,11 +122,8 @@ int RunRegister(const RegisterOptions& options)
   // --- the method (Modules/Registration) ---
   vtkImageData* ct = setup.ct.image;
   const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(ct, options.muWater);
-  Eigen::Vector3d isoInCT;
-  if (options.isocenterInCT.empty())
-    ImageCenter(ct, isoInCT.data());
-  else
-    isoInCT = Eigen::Vector3d(setup.filter->GetIsocenterInCT());
+  const Eigen::Vector3d isoInCT =
+    options.isocenterInCT.empty() ? ImageCenter(ct) : ParsePoint(options.isocenterInCT, "--iso-ct");
   const Eigen::Vector3d& roomIso = setup.geometry.isocenter;
   const Eigen::Isometry3d planned =
     PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), isoInCT, roomIso);
@@ -143,7 +135,7 @@ int RunRegister(const RegisterOptions& options)
   settings.maxEvaluations = options.maxEvaluations;
   settings.maxTranslation = options.maxTranslation;
   settings.maxRotation = options.maxRotation;
-  settings.minExplained = options.minSimilarity;
+  settings.minExplained = options.minExplained;
   settings.maxViewResidual = options.maxViewResidual;
   const StereoRegistrationResult result = RegisterStereo(*volume, planned, roomIso, views, settings);
   std::printf("pre-alignment: %s, %d iterations (%.2f s)\nmasks: valid fraction", result.prealignment.pose.ToString().c_str(),

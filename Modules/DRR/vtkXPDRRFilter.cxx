@@ -2,14 +2,13 @@
 
 #include "xpAttenuationVolume.h"
 #include "xpError.h"
+#include "xpImageGeometry.h"
 
 #include <vtkDataArray.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
-#include <vtkMatrix3x3.h>
-#include <vtkMatrix4x4.h>
 #include <vtkObjectFactory.h>
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
@@ -135,16 +134,8 @@ std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* c
     }
     values = hu.data();
   }
-  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
-  vtkMatrix4x4* m = ct->GetIndexToPhysicalMatrix();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c)
-      indexToCT.matrix()(r, c) = m->GetElement(r, c);
-  // The CT's extent may not start at 0: fold the extent start into the index mapping.
-  int extent[6];
-  ct->GetExtent(extent);
-  indexToCT = indexToCT * Eigen::Translation3d(extent[0], extent[2], extent[4]);
-  return std::make_unique<xp::AttenuationVolume>(values, Eigen::Vector3i(dims[0], dims[1], dims[2]), indexToCT, muWater);
+  return std::make_unique<xp::AttenuationVolume>(
+    values, Eigen::Vector3i(dims[0], dims[1], dims[2]), xp::IndexToPhysical(ct), muWater);
 }
 
 const xp::AttenuationVolume& vtkXPDRRFilter::Attenuation(vtkImageData* ct)
@@ -188,14 +179,7 @@ int vtkXPDRRFilter::RequestData(vtkInformation*, vtkInformationVector** inputVec
     const xp::AttenuationVolume& volume = this->Attenuation(ct);
     const Clock::time_point renderStart = Clock::now();
     this->LastPreparationSeconds = std::chrono::duration<double>(renderStart - prepareStart).count();
-    Eigen::Vector3d isoInCT(this->IsocenterInCT);
-    if (this->UseCTCenterAsIsocenter)
-    {
-      int extent[6];
-      ct->GetExtent(extent);
-      const double middle[3] = { 0.5 * (extent[0] + extent[1]), 0.5 * (extent[2] + extent[3]), 0.5 * (extent[4] + extent[5]) };
-      ct->TransformContinuousIndexToPhysicalPoint(middle, isoInCT.data());
-    }
+    const Eigen::Vector3d isoInCT = this->UseCTCenterAsIsocenter ? xp::ImageCenter(ct) : Eigen::Vector3d(this->IsocenterInCT);
     const Eigen::Vector3d roomIso(this->RoomIsocenter);
     const Eigen::Isometry3d ctToRoom =
       xp::MisalignedCTToRoom(xp::PlannedCTToRoom(this->Position, isoInCT, roomIso), this->Misalignment, roomIso);

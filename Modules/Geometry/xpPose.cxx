@@ -90,12 +90,22 @@ Pose Pose::Parse(const std::string& text, const std::string& field)
       throw InputError(field, "values must be finite");
     }
   }
+  return FromParameters(values.data());
+}
+
+Pose Pose::FromParameters(const double parameters[6])
+{
   Pose pose;
-  pose.translation = { values[0], values[1], values[2] };
-  pose.pitch = values[3];
-  pose.roll = values[4];
-  pose.yaw = values[5];
+  pose.translation = { parameters[0], parameters[1], parameters[2] };
+  pose.pitch = parameters[3];
+  pose.roll = parameters[4];
+  pose.yaw = parameters[5];
   return pose;
+}
+
+std::array<double, 6> Pose::Parameters() const
+{
+  return { this->translation[0], this->translation[1], this->translation[2], this->pitch, this->roll, this->yaw };
 }
 
 std::string Pose::ToString() const

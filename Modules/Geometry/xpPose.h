@@ -12,6 +12,7 @@
 #include "vtkXPGeometryModule.h"
 
 #include <Eigen/Geometry>
+#include <array>
 #include <string>
 
 namespace xp
@@ -34,6 +35,10 @@ struct VTKXPGEOMETRY_EXPORT Pose
 
   /** The inverse motion in the same terms: the table correction of a misalignment. */
   Pose Inverse() const;
+
+  /** The pose from / as (tx, ty, tz, pitch, roll, yaw): mm and degrees, the order of --pose. */
+  static Pose FromParameters(const double parameters[6]);
+  std::array<double, 6> Parameters() const;
 
   /** Parses "tx,ty,tz,pitch,roll,yaw"; throws xp::InputError naming `field`. */
   static Pose Parse(const std::string& text, const std::string& field);

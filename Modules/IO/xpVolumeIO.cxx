@@ -191,13 +191,4 @@ CTVolume ReadCTVolume(const std::string& path, const std::string& seriesUID)
   throw InputError(path, "unknown CT format (expected a DICOM folder, .mha/.mhd or .nii/.nii.gz)");
 }
 
-void ImageCenter(vtkImageData* image, double center[3])
-{
-  int extent[6];
-  image->GetExtent(extent);
-  const double middle[3] = { 0.5 * (extent[0] + extent[1]), 0.5 * (extent[2] + extent[3]),
-    0.5 * (extent[4] + extent[5]) };
-  image->TransformContinuousIndexToPhysicalPoint(middle, center);
-}
-
 } // namespace xp

@@ -22,7 +22,6 @@ struct VTKXPIO_EXPORT CTVolume
   vtkSmartPointer<vtkImageData> image;
   /** DICOM Patient Position; "HFS" for formats that do not carry one. */
   std::string patientPosition = "HFS";
-  std::string description;
 };
 
 /**
@@ -31,9 +30,6 @@ struct VTKXPIO_EXPORT CTVolume
  * qform/sform (RAS) is converted to LPS. Throws xp::InputError naming the path.
  */
 VTKXPIO_EXPORT CTVolume ReadCTVolume(const std::string& path, const std::string& seriesUID = "");
-
-/** The physical (LPS) centre of an image's voxel grid, with its direction matrix. */
-VTKXPIO_EXPORT void ImageCenter(vtkImageData* image, double center[3]);
 
 } // namespace xp
 

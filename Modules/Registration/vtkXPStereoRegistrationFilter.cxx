@@ -2,6 +2,7 @@
 
 #include "vtkXPDRRFilter.h"
 #include "xpError.h"
+#include "xpImageGeometry.h"
 
 #include <vtkImageData.h>
 #include <vtkInformation.h>
@@ -76,14 +77,7 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
     xp::ValidateStereoGeometry(this->Geometry, "registration geometry");
     vtkImageData* ct = vtkImageData::GetData(inputVector[0]);
     const std::unique_ptr<xp::AttenuationVolume> volume = xp::MakeAttenuationVolume(ct, this->MuWater);
-    Eigen::Vector3d isoInCT(this->IsocenterInCT);
-    if (this->UseCTCenterAsIsocenter)
-    {
-      int extent[6];
-      ct->GetExtent(extent);
-      const double middle[3] = { 0.5 * (extent[0] + extent[1]), 0.5 * (extent[2] + extent[3]), 0.5 * (extent[4] + extent[5]) };
-      ct->TransformContinuousIndexToPhysicalPoint(middle, isoInCT.data());
-    }
+    const Eigen::Vector3d isoInCT = this->UseCTCenterAsIsocenter ? xp::ImageCenter(ct) : Eigen::Vector3d(this->IsocenterInCT);
     const Eigen::Isometry3d planned = xp::PlannedCTToRoom(this->Position, isoInCT, this->Geometry.isocenter);
     std::vector<xp::RegistrationView> views;
     for (int v = 0; v < 2; ++v)

@@ -14,12 +14,7 @@ namespace
 
 Pose ToPose(const std::vector<double>& x)
 {
-  Pose pose;
-  pose.translation = { x[0], x[1], x[2] };
-  pose.pitch = x[3];
-  pose.roll = x[4];
-  pose.yaw = x[5];
-  return pose;
+  return Pose::FromParameters(x.data());
 }
 
 struct Context
@@ -46,8 +41,7 @@ PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const P
 {
   nlopt::opt optimizer(nlopt::LN_NELDERMEAD, 6);
   optimizer.set_max_objective(Trampoline, &context);
-  const std::vector<double> origin = { start.translation[0], start.translation[1], start.translation[2], start.pitch,
-    start.roll, start.yaw };
+  const std::array<double, 6> origin = start.Parameters();
   std::vector<double> lower(6), upper(6), step(6), tolerance(6);
   for (int i = 0; i < 6; ++i)
   {
@@ -92,8 +86,8 @@ PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)
 {
   Context context{ &objective };
-  std::vector<double> x = { start.translation[0], start.translation[1], start.translation[2], start.pitch, start.roll,
-    start.yaw };
+  const std::array<double, 6> parameters = start.Parameters();
+  std::vector<double> x(parameters.begin(), parameters.end());
   PoseOptimizerResult result = RunSimplex(context, x, start, settings, settings.maxEvaluations);
   for (int restart = 0; restart < settings.maxRestarts && result.converged; ++restart)
   {

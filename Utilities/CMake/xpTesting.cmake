@@ -4,6 +4,8 @@ function(xp_add_gtest name)
   cmake_parse_arguments(arg "" "" "SOURCES;LINK;LABELS" ${ARGN})
   add_executable(${name} ${arg_SOURCES})
   target_link_libraries(${name} PRIVATE ${arg_LINK} GTest::gtest_main)
+  # Testing/ holds helpers shared by the modules' tests (the reference geometry).
+  target_include_directories(${name} PRIVATE "${PROJECT_SOURCE_DIR}/Testing")
   target_compile_definitions(${name} PRIVATE
     XP_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data"
     XP_SOURCE_DIR="${PROJECT_SOURCE_DIR}")

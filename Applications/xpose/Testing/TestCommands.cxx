@@ -277,6 +277,18 @@ double JsonNumber(const std::string& text, const std::string& key, const std::st
   return std::stod(text.substr(at + key.size() + 4));
 }
 
+/** The translation (mm) of the "misalignment" or "correction" a result.json reports. */
+Eigen::Vector3d ResultTranslation(const std::string& result, const std::string& which = "misalignment")
+{
+  const std::string key = "\"" + which + "\": {\"translation_mm\": [";
+  const size_t at = result.find(key);
+  EXPECT_NE(at, std::string::npos) << result;
+  Eigen::Vector3d t = Eigen::Vector3d::Constant(NAN);
+  if (at != std::string::npos)
+    std::sscanf(result.c_str() + at + key.size(), "%lf, %lf, %lf", &t[0], &t[1], &t[2]);
+  return t;
+}
+
 xp::RegisterOptions RegisterSimulated(const std::string& simulated, const std::string& out)
 {
   xp::RegisterOptions options;
@@ -306,19 +318,14 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   const std::string result = ReadText("cmd-reg/result.json");
   EXPECT_NE(result.find("\"status\": \"ok\""), std::string::npos) << result;
   // Misalignment as simulated; the correction of a +5 mm lateral shift is about -5 mm.
-  const size_t misalignment = result.find("\"misalignment\": {\"translation_mm\": [");
-  ASSERT_NE(misalignment, std::string::npos);
-  double t[3];
-  std::sscanf(result.c_str() + misalignment, "\"misalignment\": {\"translation_mm\": [%lf, %lf, %lf]", &t[0], &t[1], &t[2]);
+  const Eigen::Vector3d t = ResultTranslation(result);
   EXPECT_NEAR(t[0], 5.0, 0.5);
   EXPECT_NEAR(t[1], -3.0, 0.5);
   EXPECT_NEAR(t[2], 2.0, 0.5);
   EXPECT_NEAR(JsonNumber(result, "pitch", "\"misalignment\""), 1.0, 0.3);
   EXPECT_NEAR(JsonNumber(result, "roll", "\"misalignment\""), -1.0, 0.3);
   EXPECT_NEAR(JsonNumber(result, "yaw", "\"misalignment\""), 1.5, 0.3);
-  const size_t correction = result.find("\"correction\": {\"translation_mm\": [");
-  double c[3];
-  std::sscanf(result.c_str() + correction, "\"correction\": {\"translation_mm\": [%lf, %lf, %lf]", &c[0], &c[1], &c[2]);
+  const Eigen::Vector3d c = ResultTranslation(result, "correction");
   EXPECT_LT(c[0], -4.0) << "correction moves the patient back";
   for (const char* file : { "drr_A.png", "drr_B.png", "mask_A.png", "mask_B.png", "entropy_A.png" })
     EXPECT_TRUE(Exists(std::string("cmd-reg/") + file)) << file;
@@ -385,10 +392,8 @@ TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
     options.entropyMask = masked;
     xp::GuardedRun("register", [&] { return xp::RunRegister(options); });
     const std::string result = ReadText(options.outputDirectory + "/result.json");
-    double t[3];
-    std::sscanf(result.c_str() + result.find("\"misalignment\": {\"translation_mm\": ["),
-      "\"misalignment\": {\"translation_mm\": [%lf, %lf, %lf]", &t[0], &t[1], &t[2]);
-    error[masked] = (Eigen::Vector3d(t[0], t[1], t[2]) - Eigen::Vector3d(6, 4, -5)).cwiseAbs().maxCoeff();
+    const Eigen::Vector3d t = ResultTranslation(result);
+    error[masked] = (t - Eigen::Vector3d(6, 4, -5)).cwiseAbs().maxCoeff();
     if (masked)
     {
       EXPECT_NE(result.find("\"status\": \"ok\""), std::string::npos) << result;
@@ -419,10 +424,8 @@ TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
   options.ct = SharedPelvis;
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   const std::string result = ReadText("cmd-pel-reg/result.json");
-  double t[3];
-  std::sscanf(result.c_str() + result.find("\"misalignment\": {\"translation_mm\": ["),
-    "\"misalignment\": {\"translation_mm\": [%lf, %lf, %lf]", &t[0], &t[1], &t[2]);
-  EXPECT_LT((Eigen::Vector3d(t[0], t[1], t[2]) - Eigen::Vector3d(7, -5, 4)).cwiseAbs().maxCoeff(), 0.5) << result;
+  const Eigen::Vector3d t = ResultTranslation(result);
+  EXPECT_LT((t - Eigen::Vector3d(7, -5, 4)).cwiseAbs().maxCoeff(), 0.5) << result;
   EXPECT_NEAR(JsonNumber(result, "yaw", "\"misalignment\""), 2.5, 0.2);
 
   // The pelvis X-rays against the head phantom's CT: another patient, so the result must fail.

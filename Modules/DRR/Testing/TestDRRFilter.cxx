@@ -3,6 +3,7 @@
 #include "vtkXPDRRFilter.h"
 
 #include "xpPose.h"
+#include "xpReferenceGeometry.h"
 
 #include <gtest/gtest.h>
 #include <vtkFloatArray.h>
@@ -15,19 +16,9 @@
 namespace
 {
 
-const double S = 0.707107, D = 707.107, H = 353.553;
-
 xp::XRayView ViewA()
 {
-  xp::XRayView a;
-  a.name = "A";
-  a.source = { -D, 0, -D };
-  a.detectorCenter = { H, 0, H };
-  a.rowDirection = { -S, 0, S };
-  a.columnDirection = { 0, -1, 0 };
-  a.pixelSpacing = { 0.390625, 0.390625 };
-  a.size = { 1024, 768 };
-  return a.Resampled(256, 192);
+  return xp::testing::ReferenceViews(256, 192)[0];
 }
 
 /**
@@ -50,6 +41,15 @@ vtkSmartPointer<vtkImageData> MarkerCT(Eigen::Vector3d& markerLPS)
   ct->GetPointData()->SetScalars(hu);
   markerLPS = Eigen::Vector3d(-50.0 + 2 * 39.5, 20.0 + 2 * 11.5, 100.0 + 2 * 29.5);
   return ct;
+}
+
+/** Room position of the marker with the planned HFS set-up (CT centre at the isocentre). */
+Eigen::Vector3d MarkerInRoom(vtkImageData* ct, const Eigen::Vector3d& markerLPS)
+{
+  double center[3];
+  const double mid[3] = { 29.5, 24.5, 19.5 };
+  ct->TransformContinuousIndexToPhysicalPoint(mid, center);
+  return xp::PlannedCTToRoom(xp::PatientPosition::HFS, Eigen::Vector3d(center), Eigen::Vector3d::Zero()) * markerLPS;
 }
 
 /** Centroid (detector col, row) of the attenuation in a DRR line-integral output. */
@@ -83,11 +83,7 @@ TEST(vtkXPDRRFilter, MarkerLandsOnThePredictedPixel)
   drr->Update();
   ASSERT_EQ(drr->GetNumberOfTracedRays(), 256 * 192);
 
-  double center[3];
-  const double mid[3] = { 29.5, 24.5, 19.5 };
-  ct->TransformContinuousIndexToPhysicalPoint(mid, center);
-  const Eigen::Vector3d room =
-    xp::PlannedCTToRoom(xp::PatientPosition::HFS, Eigen::Vector3d(center), Eigen::Vector3d::Zero()) * marker;
+  const Eigen::Vector3d room = MarkerInRoom(ct, marker);
   // HFS: the marker is left (+X), anterior (+Z) and superior (+Y) of the CT centre.
   EXPECT_GT(room[0], 0);
   EXPECT_GT(room[1], 0);
@@ -121,11 +117,7 @@ TEST(vtkXPDRRFilter, MisalignmentMovesTheMarkerAsTheConventionSays)
   drr->Update();
   const Eigen::Vector2d before = Centroid(drr->GetOutput(1));
 
-  double center[3];
-  const double mid[3] = { 29.5, 24.5, 19.5 };
-  ct->TransformContinuousIndexToPhysicalPoint(mid, center);
-  const Eigen::Vector3d room =
-    xp::PlannedCTToRoom(xp::PatientPosition::HFS, Eigen::Vector3d(center), Eigen::Vector3d::Zero()) * marker;
+  const Eigen::Vector3d room = MarkerInRoom(ct, marker);
   for (const char* text : { "5,0,0,0,0,0", "0,-7,3,0,0,0", "0,0,0,0,0,8", "2,1,-1,4,-3,2" })
   {
     const xp::Pose pose = xp::Pose::Parse(text, "pose");

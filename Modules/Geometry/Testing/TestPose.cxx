@@ -115,3 +115,13 @@ TEST(PatientPosition, MisalignmentActsInTheRoomAfterThePlan)
   // The CT point at iso_ct ends 5 mm lateral (+X) in the room.
   ExpectNear(xp::MisalignedCTToRoom(planned, lateral, Vector3d::Zero()) * Vector3d::Zero(), Vector3d(5, 0, 0));
 }
+
+TEST(Pose, ParametersRoundTripInTheOrderOfThePoseOption)
+{
+  const xp::Pose pose = xp::Pose::Parse("1,2,3,4,5,6", "--pose");
+  const std::array<double, 6> p = pose.Parameters();
+  EXPECT_EQ(p[0], 1.0);
+  EXPECT_EQ(p[3], 4.0) << "pitch";
+  EXPECT_EQ(p[5], 6.0) << "yaw";
+  EXPECT_EQ(xp::Pose::FromParameters(p.data()).roll, 5.0);
+}

@@ -1,5 +1,6 @@
 #include "xpDICOMSeriesWriter.h"
 #include "xpHeadPhantom.h"
+#include "xpImageGeometry.h"
 #include "xpVolumeIO.h"
 
 #include <gtest/gtest.h>
@@ -28,8 +29,7 @@ TEST(HeadPhantom, WritesADICOMSeriesTheReaderAccepts)
   int dims[3];
   ct.image->GetDimensions(dims);
   EXPECT_EQ(Eigen::Vector3i(dims[0], dims[1], dims[2]), phantom.dimensions);
-  double center[3];
-  xp::ImageCenter(ct.image, center);
+  const Eigen::Vector3d center = xp::ImageCenter(ct.image);
   EXPECT_NEAR(center[0], 0.0, 1e-3);
   EXPECT_NEAR(center[1], 10.0, 1e-3);
   EXPECT_NEAR(center[2], -23.0, 1e-3);

@@ -2,6 +2,7 @@
 // simulated stereo X-rays, with the signs of GEOMETRY.md.
 #include "xpHeadPhantom.h"
 #include "xpPoseOptimizer.h"
+#include "xpReferenceGeometry.h"
 #include "xpStereoSimilarity.h"
 
 #include <gtest/gtest.h>
@@ -10,24 +11,9 @@
 namespace
 {
 
-const double S = 0.707107, D = 707.107, H = 353.553;
-
 std::vector<xp::XRayView> StereoViews(int columns, int rows)
 {
-  xp::XRayView a;
-  a.name = "A";
-  a.source = { -D, 0, -D };
-  a.detectorCenter = { H, 0, H };
-  a.rowDirection = { -S, 0, S };
-  a.columnDirection = { 0, -1, 0 };
-  a.pixelSpacing = { 0.390625, 0.390625 };
-  a.size = { 1024, 768 };
-  xp::XRayView b = a;
-  b.name = "B";
-  b.source = { D, 0, -D };
-  b.detectorCenter = { -H, 0, H };
-  b.rowDirection = { -S, 0, -S };
-  return { a.Resampled(columns, rows), b.Resampled(columns, rows) };
+  return xp::testing::ReferenceViews(columns, rows);
 }
 
 struct Scene

@@ -1,4 +1,5 @@
-// The reference stereo geometry of GEOMETRY.md, built in code so tests need no file.
+// The reference stereo geometry of GEOMETRY.md, built in code so tests need no file; shared by
+// the tests of every module.
 #ifndef xpReferenceGeometry_h
 #define xpReferenceGeometry_h
 
@@ -27,6 +28,15 @@ inline StereoGeometry ReferenceStereoGeometry()
   g.name = "stereo-oblique-90";
   g.views = { a, b };
   return g;
+}
+
+/** The reference views, resampled to columns x rows on the same panels. */
+inline std::vector<XRayView> ReferenceViews(int columns, int rows)
+{
+  std::vector<XRayView> views;
+  for (const XRayView& view : ReferenceStereoGeometry().views)
+    views.push_back(view.Resampled(columns, rows));
+  return views;
 }
 
 } // namespace xp::testing
