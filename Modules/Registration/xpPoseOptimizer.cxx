@@ -105,7 +105,6 @@ PoseOptimizerResult MaximizePose(
     }
     x = again;
     result = next;
-    result.restarts = restart + 1;
     if (moved < 5.0)
     {
       break;

@@ -34,7 +34,6 @@ struct PoseOptimizerResult
   double value = 0.0;
   int evaluations = 0;
   bool converged = false;  ///< stopped on the tolerances, not on the evaluation limit
-  int restarts = 0;
   std::string stopReason;
 };
 
