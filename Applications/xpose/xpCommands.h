@@ -106,6 +106,25 @@ struct RegisterOptions
   std::string outputDirectory;
 };
 
+struct EvaluateOptions
+{
+  std::string ct;
+  std::string series;
+  std::string geometry;
+  int trials = 50;
+  double minTranslation = 1.0;      ///< initial translation error drawn in [min, max] mm
+  double maxTranslation = 30.0;
+  double maxRotation = 5.0;         ///< each angle drawn in [-max, max] degrees
+  unsigned seed = 1;
+  std::string size;                 ///< registration resolution COLSxROWS (default: the panel's)
+  std::string scenario = "noisy";   ///< clean | noisy | objects | truncated
+  std::vector<std::string> approaches{ "A", "B" };
+  double noise = 30.0;              ///< quantum noise of the noisy scenarios, grey levels
+  double successMTRE = 1.0;         ///< mm
+  int threads = 0;
+  std::string outputDirectory;
+};
+
 /** Runs `body`, turning xp::InputError into exit code 2 and other exceptions into 1, with one
  *  line on stderr: "xpose <command>: error: <message>". */
 int GuardedRun(const std::string& command, const std::function<int()>& body);
@@ -116,6 +135,7 @@ int RunBenchDRR(const BenchOptions& options);
 int RunMask(const MaskOptions& options);
 int RunSimulate(const SimulateOptions& options);
 int RunRegister(const RegisterOptions& options);
+int RunEvaluate(const EvaluateOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);

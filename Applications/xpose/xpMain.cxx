@@ -83,7 +83,34 @@ int main(int argc, char** argv)
   registerCommand->add_option("--threads", reg.threads, "Threads (0: all cores)");
   registerCommand->add_option("--out-dir", reg.outputDirectory, "Output folder")->required();
 
+  xp::EvaluateOptions evaluate;
+  CLI::App* evaluateCommand = app.add_subcommand("evaluate",
+    "Register many simulated misalignments with and without entropy masks (A: whole image, B: masks)");
+  evaluateCommand->add_option("--ct", evaluate.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  evaluateCommand->add_option("--series", evaluate.series, "Series Instance UID when the folder holds several");
+  evaluateCommand->add_option("--geometry", evaluate.geometry, "Stereo geometry JSON")->required();
+  evaluateCommand->add_option("--trials", evaluate.trials, "Misalignments drawn")->capture_default_str();
+  evaluateCommand->add_option("--min-translation", evaluate.minTranslation, "Smallest initial translation error, mm")
+    ->capture_default_str();
+  evaluateCommand->add_option("--max-translation", evaluate.maxTranslation, "Largest initial translation error, mm")
+    ->capture_default_str();
+  evaluateCommand->add_option("--max-rotation", evaluate.maxRotation, "Largest initial error per angle, degrees")
+    ->capture_default_str();
+  evaluateCommand->add_option("--seed", evaluate.seed, "Seed of the trials and the noise")->capture_default_str();
+  evaluateCommand->add_option("--size", evaluate.size, "Registration resolution COLSxROWS (divides the panel)");
+  evaluateCommand->add_option("--scenario", evaluate.scenario, "clean, noisy, objects or truncated")->capture_default_str();
+  evaluateCommand->add_option("--approaches", evaluate.approaches, "A (whole image) and/or B (entropy masks)")
+    ->capture_default_str();
+  evaluateCommand->add_option("--noise", evaluate.noise, "Quantum noise of the noisy scenarios")->capture_default_str();
+  evaluateCommand->add_option("--success-mtre", evaluate.successMTRE, "Success: final mTRE below this, mm")
+    ->capture_default_str();
+  evaluateCommand->add_option("--threads", evaluate.threads, "Threads (0: all cores)");
+  evaluateCommand->add_option("--out-dir", evaluate.outputDirectory,
+    "Output folder; an interrupted evaluation resumes in it with the same options")->required();
+
   CLI11_PARSE(app, argc, argv);
+  if (evaluateCommand->parsed())
+    return xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(evaluate); });
   if (registerCommand->parsed())
     return xp::GuardedRun("register", [&] { return xp::RunRegister(reg); });
   if (simulateCommand->parsed())

@@ -33,17 +33,6 @@ double Since(Clock::time_point start)
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-/** A top-row-first 2D image as VTK image data for the PNG writer. */
-template <typename T>
-vtkSmartPointer<vtkImageData> ToVTK(const std::vector<T>& image, int columns, int rows, int type)
-{
-  auto out = vtkSmartPointer<vtkImageData>::New();
-  out->SetDimensions(columns, rows, 1);
-  out->AllocateScalars(type, 1);
-  CopyRowsTopFirst(image, out.GetPointer());
-  return out;
-}
-
 std::string JsonString(const std::string& text)
 {
   std::string out = "\"";
@@ -178,14 +167,14 @@ int RunRegister(const RegisterOptions& options)
     const int columns = views[v].view.Columns(), rows = views[v].view.Rows();
     std::vector<uint8_t> mask255(result.masks[v].size());
     std::transform(result.masks[v].begin(), result.masks[v].end(), mask255.begin(), [](uint8_t m) { return m ? 255 : 0; });
-    WritePNG(ToVTK(mask255, columns, rows, VTK_UNSIGNED_CHAR), output.Path("mask_" + views[v].view.name + ".png"));
-    WritePNG(ToVTK(result.drrs[v], columns, rows, VTK_UNSIGNED_SHORT), output.Path("drr_" + views[v].view.name + ".png"));
+    WritePNG(ImageFromRowsTopFirst(mask255, columns, rows), output.Path("mask_" + views[v].view.name + ".png"));
+    WritePNG(ImageFromRowsTopFirst(result.drrs[v], columns, rows), output.Path("drr_" + views[v].view.name + ".png"));
     if (!result.entropyMaps.empty())
     {
       std::vector<uint8_t> map(result.entropyMaps[v].size());
       std::transform(result.entropyMaps[v].begin(), result.entropyMaps[v].end(), map.begin(),
         [](float h) { return static_cast<uint8_t>(std::lround(255.0 * std::clamp(h, 0.0f, 1.0f))); });
-      WritePNG(ToVTK(map, columns, rows, VTK_UNSIGNED_CHAR), output.Path("entropy_" + views[v].view.name + ".png"));
+      WritePNG(ImageFromRowsTopFirst(map, columns, rows), output.Path("entropy_" + views[v].view.name + ".png"));
     }
   }
   output.Commit();

@@ -9,6 +9,8 @@
 #include "vtkXPCoreModule.h"
 
 #include <vtkImageData.h>
+#include <vtkSmartPointer.h>
+#include <vtkTypeTraits.h>
 
 #include <algorithm>
 #include <vector>
@@ -49,6 +51,17 @@ void CopyRowsTopFirst(const std::vector<T>& pixels, vtkImageData* image, T scale
         static_cast<T>(pixels[static_cast<size_t>(row) * dims[0] + column] * scale);
     }
   }
+}
+
+/** A new 2D vtkImageData (scalar type of T) holding row-0-first pixels of the given size. */
+template <typename T>
+vtkSmartPointer<vtkImageData> ImageFromRowsTopFirst(const std::vector<T>& pixels, int columns, int rows)
+{
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->SetDimensions(columns, rows, 1);
+  image->AllocateScalars(vtkTypeTraits<T>::VTKTypeID(), 1);
+  CopyRowsTopFirst(pixels, image.GetPointer());
+  return image;
 }
 
 /** Asks every connected input of ports [0, ports) for its whole extent (kernels need all of it). */

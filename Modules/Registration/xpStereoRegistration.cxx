@@ -47,6 +47,12 @@ RegistrationView Half(const RegistrationView& item)
   return half;
 }
 
+double Traced(StereoRegistrationResult& result, double objective)
+{
+  result.objectiveTrace.push_back(objective);
+  return objective;
+}
+
 std::string Format(const char* format, double a, double b = 0.0, double c = 0.0)
 {
   char text[200];
@@ -141,7 +147,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     searchSettings.toleranceMM = 0.1;
     searchSettings.toleranceDegrees = 0.05;
     searchSettings.maxRestarts = 3; // stalls happen in the long coarse travel; restarts are cheap here
-    const auto objective = [&](const Pose& p) { return searchSimilarity.Evaluate(p); };
+    const auto objective = [&](const Pose& p) { return Traced(result, searchSimilarity.Evaluate(p)); };
+    result.stages.push_back({ pyramid ? "coarse search (half resolution)" : "coarse search", 0 });
     PoseOptimizerResult first = MaximizePose(objective, pose, searchSettings);
     result.evaluations += first.evaluations;
     if (settings.maxSearchDisagreementMM > 0.0)
@@ -149,13 +156,17 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       Pose moved = pose;
       moved.roll += 1.5;
       moved.translation[0] += 1.5;
+      result.stages.push_back({ "second coarse search", static_cast<int>(result.objectiveTrace.size()) });
       const PoseOptimizerResult second = MaximizePose(objective, moved, searchSettings);
       result.evaluations += second.evaluations;
       result.searchDisagreementMM = (second.pose.translation - first.pose.translation).cwiseAbs().maxCoeff();
       result.searchDisagreementDegrees = std::max({ std::abs(second.pose.pitch - first.pose.pitch),
         std::abs(second.pose.roll - first.pose.roll), std::abs(second.pose.yaw - first.pose.yaw) });
-      if (result.searchDisagreementMM > settings.maxSearchDisagreementMM ||
-        result.searchDisagreementDegrees > settings.maxSearchDisagreementDegrees)
+      // Two ends far apart matter when both are about as good: then the images cannot tell them
+      // apart. A clearly worse end is only a local optimum that the better search left behind.
+      const bool comparable = std::min(first.value, second.value) >= settings.ambiguousObjectiveRatio * std::max(first.value, second.value);
+      if (comparable && (result.searchDisagreementMM > settings.maxSearchDisagreementMM ||
+        result.searchDisagreementDegrees > settings.maxSearchDisagreementDegrees))
       {
         result.reasons.push_back(Format("two searches from starts 1.5 mm / 1.5 degrees apart ended %.2f mm and %.2f degrees "
                                         "apart: the images do not fix the pose",
@@ -173,7 +184,9 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   fineSettings.toleranceMM = 0.05;
   fineSettings.toleranceDegrees = 0.03;
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins);
-  const PoseOptimizerResult fineResult = MaximizePose([&](const Pose& p) { return fine.Evaluate(p); }, pose, fineSettings);
+  result.stages.push_back({ "fine", static_cast<int>(result.objectiveTrace.size()) });
+  const PoseOptimizerResult fineResult =
+    MaximizePose([&](const Pose& p) { return Traced(result, fine.Evaluate(p)); }, pose, fineSettings);
   result.objective = fine.Evaluate(fineResult.pose);
   result.evaluations += fineResult.evaluations;
   result.drrCount += fine.RenderedDRRs();

@@ -32,6 +32,16 @@ struct StereoRegistrationSettings
    *  valley, must end within these of the first (mm, degrees). 0 mm = no second search. */
   double maxSearchDisagreementMM = 0.5;
   double maxSearchDisagreementDegrees = 0.2;
+  /** gate: the searches count as disagreeing only when the worse one reaches this fraction of the
+   *  better one's objective (two nearly equal optima); a clearly worse end is a local optimum. */
+  double ambiguousObjectiveRatio = 0.95;
+};
+
+/** Where a stage of the 6-DOF search starts in the objective trace. */
+struct RegistrationStage
+{
+  std::string name;
+  int firstEvaluation = 0;
 };
 
 struct StereoRegistrationResult
@@ -53,6 +63,8 @@ struct StereoRegistrationResult
   bool converged = false;
   double searchDisagreementMM = 0.0;     ///< between the two coarse searches
   double searchDisagreementDegrees = 0.0;
+  std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
+  std::vector<RegistrationStage> stages; ///< the stages of that trace
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
 };
 

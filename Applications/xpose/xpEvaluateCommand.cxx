@@ -1,0 +1,328 @@
+#include "xpCommands.h"
+#include "xpEvaluation.h"
+#include "xpXRaySimulator.h"
+
+#include "xpAttenuationVolume.h"
+#include "xpError.h"
+#include "xpImageGeometry.h"
+#include "xpStereoGeometry.h"
+#include "xpStereoRegistration.h"
+#include "xpVolumeIO.h"
+
+#include <vtkDataArray.h>
+#include <vtkImageData.h>
+#include <vtkPointData.h>
+
+#include <chrono>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <set>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace xp
+{
+
+namespace
+{
+
+using Clock = std::chrono::steady_clock;
+
+constexpr double TargetHU = 150.0;       ///< bone
+constexpr double TargetRadius = 60.0;    ///< mm around the isocentre
+constexpr size_t MaximumTargets = 20000; ///< plenty for a mean; keeps the TRE cheap
+
+/**
+ * The target region of the mTRE: CT voxels above 150 HU within 60 mm of the isocentre (the bone
+ * the treatment is aimed by), in planned room coordinates, thinned evenly to at most 20000.
+ */
+std::vector<Eigen::Vector3d> TargetPoints(vtkImageData* ct, const Eigen::Vector3d& isoInCT, const Eigen::Isometry3d& planned)
+{
+  const Eigen::Affine3d toPhysical = IndexToPhysical(ct);
+  int dims[3];
+  ct->GetDimensions(dims);
+  vtkDataArray* hu = ct->GetPointData()->GetScalars();
+  std::vector<Eigen::Vector3d> targets;
+  for (int k = 0; k < dims[2]; ++k)
+    for (int j = 0; j < dims[1]; ++j)
+      for (int i = 0; i < dims[0]; ++i)
+      {
+        const Eigen::Vector3d p = toPhysical * Eigen::Vector3d(i, j, k);
+        if ((p - isoInCT).norm() <= TargetRadius &&
+          hu->GetComponent(i + static_cast<vtkIdType>(dims[0]) * (j + static_cast<vtkIdType>(dims[1]) * k), 0) > TargetHU)
+          targets.push_back(planned * p);
+      }
+  if (targets.empty())
+  {
+    throw InputError("--ct", "has no voxel above 150 HU within 60 mm of the isocentre: no target region for the mTRE");
+  }
+  const size_t stride = (targets.size() + MaximumTargets - 1) / MaximumTargets;
+  std::vector<Eigen::Vector3d> thinned;
+  for (size_t n = 0; n < targets.size(); n += stride)
+    thinned.push_back(targets[n]);
+  return thinned;
+}
+
+/** Mean distance between the targets moved by two misalignments (about the room isocentre). */
+double MeanTRE(const std::vector<Eigen::Vector3d>& targets, const Pose& a, const Pose& b, const Eigen::Vector3d& iso)
+{
+  const Eigen::Isometry3d ta = a.ToTransform(iso), tb = b.ToTransform(iso);
+  double sum = 0.0;
+  for (const Eigen::Vector3d& q : targets)
+    sum += (ta * q - tb * q).norm();
+  return sum / targets.size();
+}
+
+/**
+ * The misalignment of trial `trial`: a translation of length uniform in [min, max] mm in a uniform
+ * direction, and each angle uniform in [-maxRotation, maxRotation]. Depends only on the seed and
+ * the trial number, so an interrupted evaluation resumes with the same trials.
+ */
+Pose DrawMisalignment(unsigned seed, int trial, const EvaluateOptions& options, std::mt19937& random)
+{
+  std::seed_seq sequence{ seed, static_cast<unsigned>(trial) };
+  random.seed(sequence);
+  std::normal_distribution<double> gaussian;
+  std::uniform_real_distribution<double> length(options.minTranslation, options.maxTranslation);
+  std::uniform_real_distribution<double> angle(-options.maxRotation, options.maxRotation);
+  Eigen::Vector3d direction(gaussian(random), gaussian(random), gaussian(random));
+  Pose pose;
+  pose.translation = direction.normalized() * length(random);
+  pose.pitch = angle(random);
+  pose.roll = angle(random);
+  pose.yaw = angle(random);
+  return pose;
+}
+
+/** The slices of `ct` whose index lies in the central `fraction` of its length (same LPS placement). */
+vtkSmartPointer<vtkImageData> CropSlices(vtkImageData* ct, double fraction)
+{
+  int dims[3];
+  ct->GetDimensions(dims);
+  const int keep = std::max(1, static_cast<int>(std::lround(dims[2] * fraction)));
+  const int first = (dims[2] - keep) / 2;
+  auto cropped = vtkSmartPointer<vtkImageData>::New();
+  cropped->SetDimensions(dims[0], dims[1], keep);
+  cropped->SetSpacing(ct->GetSpacing());
+  cropped->SetDirectionMatrix(ct->GetDirectionMatrix());
+  const Eigen::Vector3d origin = IndexToPhysical(ct) * Eigen::Vector3d(0, 0, first);
+  cropped->SetOrigin(origin.data());
+  cropped->AllocateScalars(ct->GetScalarType(), 1);
+  const size_t slice = static_cast<size_t>(dims[0]) * dims[1] * ct->GetScalarSize();
+  std::memcpy(cropped->GetScalarPointer(), static_cast<const char*>(ct->GetScalarPointer()) + slice * first, slice * keep);
+  return cropped;
+}
+
+/** The settings that make trials comparable; a resumed run must have the same. */
+std::string SettingsText(const EvaluateOptions& o, const std::string& size)
+{
+  std::ostringstream text;
+  text.precision(10);
+  text << "{\n  \"ct\": \"" << o.ct << "\",\n  \"series\": \"" << o.series << "\",\n  \"geometry\": \"" << o.geometry
+       << "\",\n  \"scenario\": \"" << o.scenario << "\",\n  \"size\": \"" << size << "\",\n  \"seed\": " << o.seed
+       << ",\n  \"min_translation_mm\": " << o.minTranslation << ",\n  \"max_translation_mm\": " << o.maxTranslation
+       << ",\n  \"max_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise
+       << ",\n  \"success_mtre_mm\": " << o.successMTRE << ",\n  \"target_region\": \"CT voxels above " << TargetHU
+       << " HU within " << TargetRadius << " mm of the isocentre\"\n}\n";
+  return text.str();
+}
+
+void WriteWhole(const std::string& path, const std::string& text)
+{
+  const std::string partial = path + ".partial";
+  std::ofstream out(partial);
+  out << text;
+  out.close();
+  if (!out || std::rename(partial.c_str(), path.c_str()) != 0)
+  {
+    throw Error(path, "cannot write");
+  }
+}
+
+std::string ReadWhole(const std::string& path)
+{
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+} // namespace
+
+int RunEvaluate(const EvaluateOptions& options)
+{
+  UseThreads(options.threads);
+  const std::set<std::string> scenarios{ "clean", "noisy", "objects", "truncated" };
+  if (!scenarios.count(options.scenario))
+  {
+    throw InputError("--scenario", "expected clean, noisy, objects or truncated, got '" + options.scenario + "'");
+  }
+  if (options.trials < 1)
+  {
+    throw InputError("--trials", "must be 1 or more");
+  }
+  if (!(options.minTranslation >= 0.0 && options.maxTranslation >= options.minTranslation))
+  {
+    throw InputError("--max-translation", "must be at least --min-translation, and both 0 or more");
+  }
+  if (!(options.maxRotation >= 0.0 && options.maxRotation <= 10.0))
+  {
+    throw InputError("--max-rotation", "must be between 0 and 10 degrees");
+  }
+  for (const std::string& approach : options.approaches)
+  {
+    if (approach != "A" && approach != "B")
+      throw InputError("--approaches", "expected A (whole image) and/or B (entropy masks), got '" + approach + "'");
+  }
+
+  // --- inputs, read once for every trial ---
+  const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
+  ValidateStereoGeometry(geometry, options.geometry);
+  const CTVolume ct = ReadCTVolume(options.ct, options.series);
+  const PatientPosition position = ParsePatientPosition(ct.patientPosition, options.ct);
+  const Eigen::Vector3d isoInCT = ImageCenter(ct.image);
+  const Eigen::Vector3d& roomIso = geometry.isocenter;
+  const Eigen::Isometry3d planned = PlannedCTToRoom(position, isoInCT, roomIso);
+  int factor = 1;
+  std::string size = options.size;
+  if (!size.empty())
+  {
+    const auto [columns, rows] = ParseSize(size, "--size");
+    factor = geometry.views[0].Columns() / columns;
+    for (const XRayView& panel : geometry.views)
+      if (factor < 1 || panel.Columns() != columns * factor || panel.Rows() != rows * factor)
+        throw InputError("--size", size + " must divide imager " + panel.name + "'s panel by a whole number");
+  }
+  else
+  {
+    size = std::to_string(geometry.views[0].Columns()) + "x" + std::to_string(geometry.views[0].Rows());
+  }
+
+  XRaySimulation simulation;
+  simulation.noise = options.scenario == "clean" ? 0.0 : options.noise;
+  simulation.kvContrast = options.scenario != "clean";
+  simulation.addObjects = options.scenario == "objects";
+  XRaySimulator simulator(ct.image, position, isoInCT, roomIso, simulation);
+  // Truncated: the X-rays see the whole patient, the registration a planning CT of half its length.
+  const vtkSmartPointer<vtkImageData> registrationCT =
+    options.scenario == "truncated" ? CropSlices(ct.image, 0.5) : vtkSmartPointer<vtkImageData>(ct.image);
+  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(registrationCT, 0.0193);
+  const std::vector<Eigen::Vector3d> targets = TargetPoints(ct.image, isoInCT, planned);
+
+  // --- the output folder: settings, then one CSV row per finished registration ---
+  const std::string& directory = options.outputDirectory;
+  if (mkdir(directory.c_str(), 0755) != 0 && errno != EEXIST)
+  {
+    throw InputError(directory, "cannot create the output folder");
+  }
+  const std::string settingsPath = directory + "/evaluation.json", csvPath = directory + "/trials.csv";
+  const std::string settings = SettingsText(options, size);
+  std::vector<TrialRecord> records = ReadTrialCSV(csvPath);
+  struct stat info;
+  if (stat(settingsPath.c_str(), &info) == 0 && ReadWhole(settingsPath) != settings)
+  {
+    throw InputError(settingsPath, "was written with other settings (CT, geometry, scenario, size, seed or ranges); "
+                                   "resume with the same options or use another --out-dir");
+  }
+  WriteWhole(settingsPath, settings);
+  {
+    // Rewrite the rows that were read whole: drops a row cut off by an interruption.
+    std::string text = TrialCSVHeader() + "\n";
+    for (const TrialRecord& r : records)
+      text += TrialCSVRow(r) + "\n";
+    WriteWhole(csvPath, text);
+  }
+  std::ofstream csv(csvPath, std::ios::app);
+  std::set<std::pair<int, std::string>> done;
+  for (const TrialRecord& r : records)
+    done.insert({ r.trial, r.approach });
+  std::printf("evaluate: %s, scenario %s, %d trials x %zu approaches at %s, %zu target points; %zu registrations "
+              "already in %s\n",
+    options.ct.c_str(), options.scenario.c_str(), options.trials, options.approaches.size(), size.c_str(),
+    targets.size(), records.size(), csvPath.c_str());
+
+  std::mt19937 random;
+  const Clock::time_point start = Clock::now();
+  int registered = 0, remaining = 0;
+  for (int trial = 1; trial <= options.trials; ++trial)
+    for (const std::string& approach : options.approaches)
+      remaining += !done.count({ trial, approach });
+  for (int trial = 1; trial <= options.trials; ++trial)
+  {
+    const Pose truth = DrawMisalignment(options.seed, trial, options, random);
+    bool simulated = false;
+    std::vector<RegistrationView> views;
+    for (const std::string& approach : options.approaches)
+    {
+      if (done.count({ trial, approach }))
+        continue;
+      if (!simulated)
+      {
+        for (const XRayView& panel : geometry.views)
+        {
+          RegistrationView item;
+          item.view = panel.Resampled(panel.Columns() / factor, panel.Rows() / factor);
+          const std::vector<uint16_t> xray = simulator.Simulate(panel, truth, random);
+          item.xray = factor > 1 ? ShrinkImage(xray, panel.Columns(), factor) : xray;
+          views.push_back(std::move(item));
+        }
+        simulated = true;
+      }
+      StereoRegistrationSettings settingsOfApproach;
+      settingsOfApproach.entropyMask = approach == "B";
+      const Clock::time_point registrationStart = Clock::now();
+      const StereoRegistrationResult result = RegisterStereo(*volume, planned, roomIso, views, settingsOfApproach);
+
+      TrialRecord r;
+      r.trial = trial;
+      r.approach = approach;
+      r.scenario = options.scenario;
+      r.initial = truth.Parameters();
+      r.initialTranslation = truth.translation.norm();
+      r.initialMTRE = MeanTRE(targets, truth, Pose{}, roomIso);
+      r.status = result.ok ? "ok" : "failed";
+      const std::array<double, 6> estimated = result.misalignment.Parameters();
+      for (int a = 0; a < 6; ++a)
+        r.error[a] = estimated[a] - r.initial[a];
+      r.mtre = MeanTRE(targets, result.misalignment, truth, roomIso);
+      r.success = result.ok && r.mtre < options.successMTRE;
+      r.prealignSeconds = result.prealignSeconds;
+      r.maskSeconds = result.maskSeconds;
+      r.fineSeconds = result.fineSeconds;
+      r.totalSeconds = std::chrono::duration<double>(Clock::now() - registrationStart).count();
+      r.drrCount = result.drrCount;
+      r.evaluations = result.evaluations;
+      for (const std::string& reason : result.reasons)
+        r.reasons += (r.reasons.empty() ? "" : "; ") + reason;
+      csv << TrialCSVRow(r) << std::endl; // flushed: an interruption keeps every finished registration
+      records.push_back(r);
+      ++registered;
+
+      int successes = 0, count = 0;
+      for (const TrialRecord& other : records)
+        if (other.approach == approach)
+          ++count, successes += other.success;
+      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+      std::printf("trial %d of %d, %s: initial %.1f mm (mTRE %.1f), final mTRE %.3f mm, %s, %.1f s | success %s %d/%d | "
+                  "about %.0f min left\n",
+        trial, options.trials, approach == "A" ? "A (whole image)" : "B (entropy masks)", r.initialTranslation,
+        r.initialMTRE, r.mtre, r.success ? "success" : (result.ok ? "ok but off" : "failed"), r.totalSeconds,
+        approach.c_str(), successes, count, elapsed / registered * (remaining - registered) / 60.0);
+      std::fflush(stdout);
+    }
+  }
+  if (!csv)
+  {
+    throw Error(csvPath, "cannot append a trial");
+  }
+  WriteWhole(directory + "/summary.json", SummaryJSON(records, options.successMTRE));
+  WriteEvaluationPlots(records, options.successMTRE, directory);
+  std::printf("wrote trials.csv, summary.json and plots to %s\n", directory.c_str());
+  return ExitOk;
+}
+
+} // namespace xp

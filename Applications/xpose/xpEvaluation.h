@@ -1,0 +1,58 @@
+// The records of `xpose evaluate`: one CSV row per trial and approach, and the summary of them
+// (internal to the xpose application; tests read it too).
+#ifndef xpEvaluation_h
+#define xpEvaluation_h
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace xp
+{
+
+/** One registration of one trial: approach "A" (whole image) or "B" (entropy masks). */
+struct TrialRecord
+{
+  int trial = 0;
+  std::string approach;
+  std::string scenario;
+  std::array<double, 6> initial{};   ///< the true misalignment tx,ty,tz (mm), pitch,roll,yaw (deg)
+  double initialTranslation = 0.0;   ///< |t| of the true misalignment, mm
+  double initialMTRE = 0.0;          ///< mTRE of the start pose (no correction), mm
+  std::string status;                ///< "ok" or "failed"
+  std::array<double, 6> error{};     ///< estimated minus true misalignment, per axis
+  double mtre = 0.0;                 ///< mean target registration error after registration, mm
+  bool success = false;              ///< status ok and mtre below the success threshold
+  double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
+  long long drrCount = 0;
+  int evaluations = 0;
+  std::string reasons;               ///< the gate's reasons, ';'-separated
+};
+
+/** The CSV header line (without newline) and one row. */
+std::string TrialCSVHeader();
+std::string TrialCSVRow(const TrialRecord& record);
+
+/**
+ * Reads the rows of a trials.csv written by TrialCSVRow. A last line cut off by an interruption
+ * is ignored; any other malformed line or a different header throws xp::InputError naming the
+ * file and the line. A missing file gives no rows.
+ */
+std::vector<TrialRecord> ReadTrialCSV(const std::string& path);
+
+/** summary.json: per approach and per 5 mm band of initial error, and the goals of the issue. */
+std::string SummaryJSON(const std::vector<TrialRecord>& records, double successMTRE);
+
+/**
+ * The plots of an evaluation, as PNG in `directory`: final_error.png (final mTRE against initial
+ * error, the paper's Figure 6), time.png (registration time against initial error) and
+ * capture_range.png (success rate per 5 mm band of initial error), approaches A and B together.
+ */
+void WriteEvaluationPlots(const std::vector<TrialRecord>& records, double successMTRE, const std::string& directory);
+
+/** The q-quantile (0..1) of values, linear between order statistics; NaN when empty. */
+double Quantile(std::vector<double> values, double q);
+
+} // namespace xp
+
+#endif
