@@ -104,6 +104,13 @@ struct RegisterOptions
   double maxViewResidual = 1.0;     ///< mm a view's own 2D registration may still want to move
   int threads = 0;
   std::string outputDirectory;
+  std::string reportDirectory;      ///< when set, the visual report is written there too
+};
+
+struct ReportOptions
+{
+  std::string result;               ///< result.json of `xpose register`
+  std::string outputDirectory;      ///< default: "report" beside result.json
 };
 
 struct EvaluateOptions
@@ -136,6 +143,7 @@ int RunMask(const MaskOptions& options);
 int RunSimulate(const SimulateOptions& options);
 int RunRegister(const RegisterOptions& options);
 int RunEvaluate(const EvaluateOptions& options);
+int RunReport(const ReportOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);

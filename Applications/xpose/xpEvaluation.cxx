@@ -18,7 +18,6 @@ namespace
 {
 
 const char* const AxisNames[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };
-constexpr int NumberOfColumns = 28;
 
 std::vector<std::string> SplitCSV(const std::string& line)
 {
@@ -145,7 +144,9 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
   }();
   if (lines.empty())
     return records;
-  if (lines[0] != TrialCSVHeader())
+  const std::string header = TrialCSVHeader();
+  const size_t columns = static_cast<size_t>(std::count(header.begin(), header.end(), ',')) + 1;
+  if (lines[0] != header)
   {
     throw InputError(path, "line 1: not the header of this version's trials.csv; use another --out-dir");
   }
@@ -155,7 +156,7 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
     const bool cutOff = n + 1 == lines.size() && !lastLineComplete;
     try
     {
-      if (f.size() != NumberOfColumns)
+      if (f.size() != columns)
         throw std::invalid_argument("columns");
       TrialRecord r;
       size_t i = 0;
@@ -184,7 +185,7 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
     {
       if (cutOff)
         break; // the row being written when the run was interrupted: that trial runs again
-      throw InputError(path, "line " + std::to_string(n + 1) + ": expected " + std::to_string(NumberOfColumns) +
+      throw InputError(path, "line " + std::to_string(n + 1) + ": expected " + std::to_string(columns) +
           " comma-separated fields of a trial");
     }
   }

@@ -82,6 +82,12 @@ int main(int argc, char** argv)
   registerCommand->add_option("--max-rotation", reg.maxRotation, "Largest accepted correction, degrees")->capture_default_str();
   registerCommand->add_option("--threads", reg.threads, "Threads (0: all cores)");
   registerCommand->add_option("--out-dir", reg.outputDirectory, "Output folder")->required();
+  registerCommand->add_option("--report", reg.reportDirectory, "Also write the visual report (index.html, summary.png) here");
+
+  xp::ReportOptions report;
+  CLI::App* reportCommand = app.add_subcommand("report", "Rebuild the visual report of a finished registration");
+  reportCommand->add_option("--result", report.result, "result.json written by xpose register")->required();
+  reportCommand->add_option("--out-dir", report.outputDirectory, "Report folder (default: report/ beside result.json)");
 
   xp::EvaluateOptions evaluate;
   CLI::App* evaluateCommand = app.add_subcommand("evaluate",
@@ -109,6 +115,8 @@ int main(int argc, char** argv)
     "Output folder; an interrupted evaluation resumes in it with the same options")->required();
 
   CLI11_PARSE(app, argc, argv);
+  if (reportCommand->parsed())
+    return xp::GuardedRun("report", [&] { return xp::RunReport(report); });
   if (evaluateCommand->parsed())
     return xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(evaluate); });
   if (registerCommand->parsed())

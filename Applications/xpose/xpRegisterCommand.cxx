@@ -1,5 +1,5 @@
 #include "xpCommands.h"
-#include "xpDRRSetup.h"
+#include "xpRegistrationInputs.h"
 
 #include "vtkXPDRRFilter.h"
 
@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -43,17 +44,12 @@ std::string JsonString(const std::string& text)
 
 } // namespace
 
-int RunRegister(const RegisterOptions& options)
+RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
 {
-  const Clock::time_point start = Clock::now();
-  UseThreads(options.threads);
-  if (options.bins < 8 || options.bins > 256)
-  {
-    throw InputError("--bins", "must be between 8 and 256");
-  }
-  // --- read and check every input before any work ---
-  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.geometry, options.isocenterInCT, options.muWater,
+  RegistrationInputs inputs;
+  inputs.setup = MakeDRRSetup(options.ct, options.series, options.geometry, options.isocenterInCT, options.muWater,
     "trilinear", 0.0);
+  const DRRSetup& setup = inputs.setup;
   ValidateStereoGeometry(setup.geometry, options.geometry);
   const std::vector<XRayView>& panels = setup.geometry.views;
   if (options.xrays.size() != panels.size())
@@ -79,8 +75,6 @@ int RunRegister(const RegisterOptions& options)
       }
     }
   }
-  std::vector<RegistrationView> views;
-  std::vector<std::vector<uint8_t>> rois;
   for (size_t v = 0; v < panels.size(); ++v)
   {
     vtkSmartPointer<vtkImageData> xray = ReadXRayImage(options.xrays[v]);
@@ -95,29 +89,38 @@ int RunRegister(const RegisterOptions& options)
     RegistrationView item;
     item.view = panels[v].Resampled(panels[v].Columns() / factor, panels[v].Rows() / factor);
     item.xray = factor > 1 ? ShrinkImage(RowsTopFirst<uint16_t>(xray), dims[0], factor) : RowsTopFirst<uint16_t>(xray);
-    std::vector<uint8_t> roi;
     if (!options.rois.empty())
     {
-      roi = RowsTopFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1]));
-      roi = factor > 1 ? ShrinkMask(roi, dims[0], factor) : roi;
+      item.mask = RowsTopFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1]));
+      item.mask = factor > 1 ? ShrinkMask(item.mask, dims[0], factor) : item.mask;
     }
-    rois.push_back(roi);
-    views.push_back(std::move(item));
+    inputs.views.push_back(std::move(item));
   }
+  vtkImageData* ct = setup.ct.image;
+  inputs.isoInCT = options.isocenterInCT.empty() ? ImageCenter(ct) : ParsePoint(options.isocenterInCT, "--iso-ct");
+  inputs.planned = PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), inputs.isoInCT, setup.geometry.isocenter);
+  return inputs;
+}
+
+int RunRegister(const RegisterOptions& options)
+{
+  const Clock::time_point start = Clock::now();
+  UseThreads(options.threads);
+  if (options.bins < 8 || options.bins > 256)
+  {
+    throw InputError("--bins", "must be between 8 and 256");
+  }
+  // --- read and check every input before any work ---
+  const RegistrationInputs inputs = LoadRegistrationInputs(options);
+  const DRRSetup& setup = inputs.setup;
+  const std::vector<RegistrationView>& views = inputs.views;
   const double readSeconds = Since(start);
   std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), views.size(),
     views[0].view.Columns(), views[0].view.Rows(), readSeconds);
 
   // --- the method (Modules/Registration) ---
-  vtkImageData* ct = setup.ct.image;
-  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(ct, options.muWater);
-  const Eigen::Vector3d isoInCT =
-    options.isocenterInCT.empty() ? ImageCenter(ct) : ParsePoint(options.isocenterInCT, "--iso-ct");
+  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(setup.ct.image, options.muWater);
   const Eigen::Vector3d& roomIso = setup.geometry.isocenter;
-  const Eigen::Isometry3d planned =
-    PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), isoInCT, roomIso);
-  for (size_t v = 0; v < views.size(); ++v)
-    views[v].mask = rois[v];
   StereoRegistrationSettings settings;
   settings.entropyMask = options.entropyMask;
   settings.bins = options.bins;
@@ -126,7 +129,7 @@ int RunRegister(const RegisterOptions& options)
   settings.maxRotation = options.maxRotation;
   settings.minExplained = options.minExplained;
   settings.maxViewResidual = options.maxViewResidual;
-  const StereoRegistrationResult result = RegisterStereo(*volume, planned, roomIso, views, settings);
+  const StereoRegistrationResult result = RegisterStereo(*volume, inputs.planned, roomIso, views, settings);
   std::printf("pre-alignment: %s, %d iterations (%.2f s)\nmasks: valid fraction", result.prealignment.pose.ToString().c_str(),
     result.prealignment.iterations, result.prealignSeconds);
   for (size_t v = 0; v < views.size(); ++v)
@@ -160,7 +163,25 @@ int RunRegister(const RegisterOptions& options)
        << ", \"degrees\": " << result.searchDisagreementDegrees << "},\n  \"reasons\": [";
   for (size_t r = 0; r < reasons.size(); ++r)
     json << (r ? ", " : "") << JsonString(reasons[r]);
-  json << "]\n}\n";
+  // What `xpose report` needs to rebuild the pictures: the inputs (absolute paths) and the trace.
+  const auto absolute = [](const std::string& path) { return JsonString(std::filesystem::absolute(path).lexically_normal().string()); };
+  json << "],\n  \"inputs\": {\"ct\": " << absolute(options.ct) << ", \"series\": " << JsonString(options.series)
+       << ", \"geometry\": " << absolute(options.geometry) << ", \"xrays\": [";
+  for (size_t v = 0; v < options.xrays.size(); ++v)
+    json << (v ? ", " : "") << absolute(options.xrays[v]);
+  json << "], \"rois\": [";
+  for (size_t v = 0; v < options.rois.size(); ++v)
+    json << (v ? ", " : "") << absolute(options.rois[v]);
+  json << "], \"size\": " << JsonString(options.size) << ", \"iso_ct\": " << JsonString(options.isocenterInCT)
+       << ", \"mu_water\": " << options.muWater << ", \"entropy_mask\": " << (options.entropyMask ? "true" : "false")
+       << "},\n  \"convergence\": {\"stages\": [";
+  for (size_t n = 0; n < result.stages.size(); ++n)
+    json << (n ? ", " : "") << "{\"name\": " << JsonString(result.stages[n].name)
+         << ", \"first_evaluation\": " << result.stages[n].firstEvaluation << "}";
+  json << "], \"objective\": [";
+  for (size_t n = 0; n < result.objectiveTrace.size(); ++n)
+    json << (n ? ", " : "") << result.objectiveTrace[n];
+  json << "]}\n}\n";
   std::ofstream(output.Path("result.json")) << json.str();
   for (size_t v = 0; v < views.size(); ++v)
   {
@@ -185,6 +206,13 @@ int RunRegister(const RegisterOptions& options)
     result.drrCount, result.evaluations, totalSeconds, options.outputDirectory.c_str());
   for (const std::string& reason : reasons)
     std::printf("  reason: %s\n", reason.c_str());
+  if (!options.reportDirectory.empty())
+  {
+    ReportOptions report;
+    report.result = options.outputDirectory + "/result.json";
+    report.outputDirectory = options.reportDirectory;
+    RunReport(report);
+  }
   return ok ? ExitOk : ExitRegistrationFailed;
 }
 

@@ -3,6 +3,8 @@
 #ifndef xpCanvas_h
 #define xpCanvas_h
 
+#include "xpOverlays.h"
+
 #include <opencv2/core.hpp>
 
 #include <vtkImageData.h>
@@ -23,6 +25,11 @@ cv::Mat FromVTK(vtkImageData* image);
 
 /** 12-bit grey (row 0 first) -> 8-bit, windowed on the 1st..99th percentile of the valid pixels. */
 cv::Mat Grey8(const std::vector<uint16_t>& image, int columns, int rows, const std::vector<uint8_t>& valid = {});
+
+/** The overlays of xpOverlays.h, and a 0..1 map in viridis, as BGR canvases. */
+cv::Mat Overlay(OverlayMode mode, const std::vector<uint16_t>& xray, const std::vector<uint16_t>& drr, int columns, int rows,
+  const std::vector<uint8_t>& mask);
+cv::Mat ColourMap(const std::vector<float>& map, int columns, int rows);
 
 /** Text in the plain Hershey font, anti-aliased; `scale` 1 is about 20 pixels high. */
 void Text(cv::Mat& canvas, const std::string& text, cv::Point origin, double scale, cv::Scalar bgr, int thickness = 1);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <vtkDataArray.h>
@@ -432,4 +433,166 @@ TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
   options = RegisterSimulated("cmd-pel-sim", "cmd-pel-other");
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
   EXPECT_NE(ReadText("cmd-pel-other/result.json").find("\"status\": \"failed\""), std::string::npos);
+}
+
+namespace
+{
+
+/** Reads a PNG; returns the standard deviation of its first channel (0 for an unreadable file). */
+double PNGContrast(const std::string& path, int* width = nullptr)
+{
+  vtkNew<vtkPNGReader> reader;
+  if (!reader->CanReadFile(path.c_str()))
+    return 0.0;
+  reader->SetFileName(path.c_str());
+  reader->Update();
+  vtkImageData* image = reader->GetOutput();
+  if (width)
+    *width = image->GetDimensions()[0];
+  vtkDataArray* values = image->GetPointData()->GetScalars();
+  double sum = 0.0, squares = 0.0;
+  const vtkIdType n = values->GetNumberOfTuples();
+  for (vtkIdType i = 0; i < n; ++i)
+  {
+    const double v = values->GetComponent(i, 0);
+    sum += v;
+    squares += v * v;
+  }
+  return n > 0 ? std::sqrt(std::max(0.0, squares / n - (sum / n) * (sum / n))) : 0.0;
+}
+
+std::vector<std::string> ReportPictures()
+{
+  std::vector<std::string> files{ "convergence.png", "summary.png" };
+  for (const char* view : { "A", "B" })
+    for (const char* kind : { "xray", "drr_start", "drr_final", "checkerboard", "blend", "edges", "entropy", "mask", "roi",
+           "masked_xray" })
+      files.push_back(std::string("view_") + view + "_" + kind + ".png");
+  return files;
+}
+
+} // namespace
+
+TEST(Commands, RegisterWritesAReportThatReportRebuilds)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-report-sim cmd-report cmd-report-again"), 0);
+  xp::SimulateOptions simulate;
+  simulate.ct = PhantomCT();
+  simulate.geometry = Geometry;
+  simulate.pose = "4,-2,3,1,0.5,-1";
+  simulate.noise = 20.0;
+  simulate.kvContrast = true;
+  simulate.addObjects = true;
+  simulate.outputDirectory = "cmd-report-sim";
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  xp::RegisterOptions options = RegisterSimulated("cmd-report-sim", "cmd-report");
+  options.reportDirectory = "cmd-report/report";
+  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+
+  for (const std::string& file : ReportPictures())
+  {
+    const std::string path = "cmd-report/report/" + file;
+    EXPECT_GT(PNGContrast(path), 5.0) << path << " is missing, unreadable or blank";
+  }
+  int summaryWidth = 0;
+  PNGContrast("cmd-report/report/summary.png", &summaryWidth);
+  EXPECT_GE(summaryWidth, 1000);
+  EXPECT_GT(PNGContrast("cmd-report/report/scene3d.png"), 5.0) << "the 3D scene (Xvfb started by xpose when no display)";
+  const std::string html = ReadText("cmd-report/report/index.html");
+  EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+  EXPECT_NE(html.find("</html>"), std::string::npos);
+  EXPECT_NE(html.find("couch correction"), std::string::npos);
+  for (const std::string& file : ReportPictures())
+    if (file != "summary.png")
+      EXPECT_NE(html.find("src=\"" + file + "\""), std::string::npos) << file << " is not on the page";
+
+  // `xpose report` rebuilds it from result.json; with no display and no Xvfb it warns, skips the
+  // 3D scene and still writes the rest.
+  const char* display = std::getenv("DISPLAY");
+  const std::string savedDisplay = display ? display : "", savedPath = std::getenv("PATH");
+  unsetenv("DISPLAY");
+  setenv("PATH", "/nonexistent", 1);
+  xp::ReportOptions report;
+  report.result = "cmd-report/result.json";
+  report.outputDirectory = "cmd-report-again";
+  const int code = xp::GuardedRun("report", [&] { return xp::RunReport(report); });
+  setenv("PATH", savedPath.c_str(), 1);
+  if (display)
+    setenv("DISPLAY", savedDisplay.c_str(), 1);
+  ASSERT_EQ(code, xp::ExitOk);
+  for (const std::string& file : ReportPictures())
+    EXPECT_GT(PNGContrast("cmd-report-again/" + file), 5.0) << file;
+  EXPECT_FALSE(Exists("cmd-report-again/scene3d.png"));
+  EXPECT_NE(ReadText("cmd-report-again/index.html").find("3D scene was not rendered"), std::string::npos);
+
+  // A result.json without what the report needs: exit 2, naming the field, nothing written.
+  std::ofstream("cmd-report/broken.json") << "{\"status\": \"ok\"}";
+  report.result = "cmd-report/broken.json";
+  report.outputDirectory = "cmd-report-broken";
+  EXPECT_EQ(xp::GuardedRun("report", [&] { return xp::RunReport(report); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-report-broken"));
+}
+
+TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-evaluate"), 0);
+  xp::EvaluateOptions options;
+  options.ct = PhantomCT();
+  options.geometry = Geometry;
+  options.trials = 2;
+  options.maxTranslation = 8.0;
+  options.maxRotation = 2.0;
+  options.size = "128x96";
+  options.scenario = "objects";
+  options.seed = 7;
+  options.outputDirectory = "cmd-evaluate";
+  ASSERT_EQ(xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(options); }), xp::ExitOk);
+  for (const char* file : { "trials.csv", "summary.json", "evaluation.json" })
+    EXPECT_TRUE(Exists(std::string("cmd-evaluate/") + file)) << file;
+  for (const char* plot : { "final_error.png", "time.png", "capture_range.png" })
+    EXPECT_GT(PNGContrast(std::string("cmd-evaluate/") + plot), 5.0) << plot;
+
+  // trials.csv: the header, one row per trial and approach, success only below 1 mm with status ok.
+  std::ifstream csv("cmd-evaluate/trials.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header.rfind("trial,approach,scenario,initial_tx", 0), 0u);
+  const int columns = static_cast<int>(std::count(header.begin(), header.end(), ',')) + 1;
+  int rows = 0;
+  while (std::getline(csv, line))
+  {
+    ++rows;
+    std::vector<std::string> f;
+    std::stringstream fields(line);
+    for (std::string field; std::getline(fields, field, ',');)
+      f.push_back(field);
+    if (!line.empty() && line.back() == ',')
+      f.emplace_back();
+    ASSERT_EQ(static_cast<int>(f.size()), columns) << line;
+    EXPECT_TRUE(f[1] == "A" || f[1] == "B");
+    EXPECT_EQ(f[2], "objects");
+    const double initial = std::stod(f[9]), mtre = std::stod(f[18]);
+    EXPECT_GE(initial, 1.0);
+    EXPECT_LE(initial, 8.0);
+    if (f[19] == "1")
+    {
+      EXPECT_EQ(f[11], "ok");
+      EXPECT_LT(mtre, 1.0);
+    }
+    else
+    {
+      EXPECT_TRUE(f[11] != "ok" || mtre >= 1.0) << "a trial below 1 mm with status ok is a success: " << line;
+    }
+  }
+  EXPECT_EQ(rows, 4);
+  const std::string summary = ReadText("cmd-evaluate/summary.json");
+  for (const char* key : { "\"A\"", "\"B\"", "\"success_rate\"", "\"bands_mm\"", "\"goals_B\"", "\"time_s\"", "\"mtre_mm\"" })
+    EXPECT_NE(summary.find(key), std::string::npos) << key;
+
+  // Resuming with the same options registers nothing again; other options are refused.
+  ASSERT_EQ(xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(options); }), xp::ExitOk);
+  std::ifstream again("cmd-evaluate/trials.csv");
+  EXPECT_EQ(std::count(std::istreambuf_iterator<char>(again), std::istreambuf_iterator<char>(), '\n'), 5);
+  options.seed = 8;
+  EXPECT_EQ(xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(options); }), xp::ExitBadInput);
 }

@@ -1,0 +1,30 @@
+// The inputs of a registration, read and checked once for `register` and `report` (internal).
+#ifndef xpRegistrationInputs_h
+#define xpRegistrationInputs_h
+
+#include "xpCommands.h"
+#include "xpDRRSetup.h"
+
+#include "xpStereoSimilarity.h"
+
+#include <Eigen/Geometry>
+
+#include <vector>
+
+namespace xp
+{
+
+struct RegistrationInputs
+{
+  DRRSetup setup;                         ///< CT, geometry, and a DRR filter placed like the CT
+  std::vector<RegistrationView> views;    ///< X-rays at the registration size, user ROIs in `mask`
+  Eigen::Vector3d isoInCT = Eigen::Vector3d::Zero();
+  Eigen::Isometry3d planned = Eigen::Isometry3d::Identity(); ///< CT (LPS) -> Room, planned set-up
+};
+
+/** Reads the CT, geometry, X-rays and ROIs of `options`; throws xp::InputError naming the file or option. */
+RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options);
+
+} // namespace xp
+
+#endif
