@@ -13,6 +13,7 @@
 #include <vtkImageData.h>
 #include <vtkPointData.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cerrno>
 #include <cmath>
@@ -319,9 +320,12 @@ int RunEvaluate(const EvaluateOptions& options)
   {
     throw Error(csvPath, "cannot append a trial");
   }
+  // The summary covers trials 1..N of this run; rows of a longer earlier run stay in trials.csv.
+  records.erase(std::remove_if(records.begin(), records.end(), [&](const TrialRecord& r) { return r.trial > options.trials; }),
+    records.end());
   WriteWhole(directory + "/summary.json", SummaryJSON(records, options.successMTRE));
   WriteEvaluationPlots(records, options.successMTRE, directory);
-  std::printf("wrote trials.csv, summary.json and plots to %s\n", directory.c_str());
+  std::printf("\n%s\nwrote trials.csv, summary.json and plots to %s\n", SummaryTable(records).c_str(), directory.c_str());
   return ExitOk;
 }
 

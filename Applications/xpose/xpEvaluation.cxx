@@ -263,6 +263,71 @@ std::string SummaryJSON(const std::vector<TrialRecord>& records, double successM
   return json.str();
 }
 
+std::string SummaryTable(const std::vector<TrialRecord>& records)
+{
+  std::map<std::string, std::vector<const TrialRecord*>> byApproach;
+  std::map<int, std::map<std::string, std::vector<const TrialRecord*>>> byBand;
+  for (const TrialRecord& r : records)
+  {
+    byApproach[r.approach].push_back(&r);
+    byBand[static_cast<int>(std::floor(r.initialTranslation / 5.0))][r.approach].push_back(&r);
+  }
+  const auto rate = [](const std::vector<const TrialRecord*>& group, double upTo) {
+    int n = 0, successes = 0;
+    for (const TrialRecord* r : group)
+      if (r->initialTranslation <= upTo)
+        ++n, successes += r->success;
+    char text[32];
+    std::snprintf(text, sizeof(text), n ? "%.0f %% (%d/%d)" : "-", n ? 100.0 * successes / n : 0.0, successes, n);
+    return std::string(text);
+  };
+  const auto column = [](const std::vector<const TrialRecord*>& group, auto value) {
+    std::vector<double> values;
+    for (const TrialRecord* r : group)
+      values.push_back(value(*r));
+    return values;
+  };
+  std::ostringstream table;
+  char line[512];
+  table << "| approach | trials | success <= 20 mm | success <= 30 mm | median mTRE (mm) | p95 mTRE (mm) | median abs error "
+           "tx ty tz (mm) | median abs error pitch roll yaw (deg) | median time (s) | p95 time (s) |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  std::map<std::string, double> medianTime;
+  for (const auto& [approach, group] : byApproach)
+  {
+    std::array<double, 6> axis{};
+    for (int a = 0; a < 6; ++a)
+      axis[a] = Quantile(column(group, [a](const TrialRecord& r) { return std::abs(r.error[a]); }), 0.5);
+    const std::vector<double> mtre = column(group, [](const TrialRecord& r) { return r.mtre; });
+    const std::vector<double> seconds = column(group, [](const TrialRecord& r) { return r.totalSeconds; });
+    medianTime[approach] = Quantile(seconds, 0.5);
+    std::snprintf(line, sizeof(line), "| %s | %zu | %s | %s | %.3f | %.3f | %.3f %.3f %.3f | %.3f %.3f %.3f | %.1f | %.1f |\n",
+      approach == "A" ? "A: whole image" : approach == "B" ? "B: entropy masks" : approach.c_str(), group.size(),
+      rate(group, 20.0).c_str(), rate(group, 30.0).c_str(), Quantile(mtre, 0.5), Quantile(mtre, 0.95), axis[0], axis[1], axis[2],
+      axis[3], axis[4], axis[5], medianTime[approach], Quantile(seconds, 0.95));
+    table << line;
+  }
+  if (medianTime.count("A") && medianTime.count("B") && medianTime["B"] > 0)
+  {
+    std::snprintf(line, sizeof(line), "\nmedian time A / B: %.2f\n", medianTime["A"] / medianTime["B"]);
+    table << line;
+  }
+  table << "\n| initial error band (mm) | trials | success A | success B | median mTRE A (mm) | median mTRE B (mm) | median time A (s) | "
+           "median time B (s) |\n|---|---|---|---|---|---|---|---|\n";
+  for (auto& [band, groups] : byBand)
+  {
+    const auto median = [&](const std::string& approach, auto value) {
+      return groups.count(approach) ? Quantile(column(groups[approach], value), 0.5) : NAN;
+    };
+    const size_t trials = std::max(groups.count("A") ? groups["A"].size() : 0, groups.count("B") ? groups["B"].size() : 0);
+    std::snprintf(line, sizeof(line), "| %d-%d | %zu | %s | %s | %.3f | %.3f | %.1f | %.1f |\n", 5 * band, 5 * band + 5, trials,
+      rate(groups["A"], 1e9).c_str(), rate(groups["B"], 1e9).c_str(), median("A", [](const TrialRecord& r) { return r.mtre; }),
+      median("B", [](const TrialRecord& r) { return r.mtre; }), median("A", [](const TrialRecord& r) { return r.totalSeconds; }),
+      median("B", [](const TrialRecord& r) { return r.totalSeconds; }));
+    table << line;
+  }
+  return table.str();
+}
+
 void WriteEvaluationPlots(const std::vector<TrialRecord>& records, double successMTRE, const std::string& directory)
 {
   const std::map<std::string, std::array<unsigned char, 3>> colours{ { "A", { 200, 60, 40 } }, { "B", { 30, 90, 200 } } };

@@ -43,6 +43,9 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path);
 /** summary.json: per approach and per 5 mm band of initial error, and the goals of the issue. */
 std::string SummaryJSON(const std::vector<TrialRecord>& records, double successMTRE);
 
+/** The summary as Markdown tables (per approach, per 5 mm band), printed at the end of a run. */
+std::string SummaryTable(const std::vector<TrialRecord>& records);
+
 /**
  * The plots of an evaluation, as PNG in `directory`: final_error.png (final mTRE against initial
  * error, the paper's Figure 6), time.png (registration time against initial error) and
