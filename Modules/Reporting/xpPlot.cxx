@@ -93,7 +93,7 @@ vtkSmartPointer<vtkImageData> Plot::Render(int width, int height) const
   if (yMax - yMin < 1e-12)
     yMin -= 0.5, yMax += 0.5;
   if (this->LogY && !this->FixedY)
-    yMin = std::floor(yMin), yMax = std::ceil(yMax);
+    yMin = std::floor(yMin) - 0.05, yMax = std::ceil(yMax) + 0.15; // whole decades, room for labels
   else if (!this->FixedY)
   {
     const double margin = 0.05 * (yMax - yMin);
