@@ -1,4 +1,5 @@
 #include "xpCommands.h"
+#include "xpRegistrationInputs.h"
 #include "xpEvaluation.h"
 #include "xpXRaySimulator.h"
 
@@ -188,20 +189,8 @@ int RunEvaluate(const EvaluateOptions& options)
   const Eigen::Vector3d isoInCT = ImageCenter(ct.image);
   const Eigen::Vector3d& roomIso = geometry.isocenter;
   const Eigen::Isometry3d planned = PlannedCTToRoom(position, isoInCT, roomIso);
-  int factor = 1;
-  std::string size = options.size;
-  if (!size.empty())
-  {
-    const auto [columns, rows] = ParseSize(size, "--size");
-    factor = geometry.views[0].Columns() / columns;
-    for (const XRayView& panel : geometry.views)
-      if (factor < 1 || panel.Columns() != columns * factor || panel.Rows() != rows * factor)
-        throw InputError("--size", size + " must divide imager " + panel.name + "'s panel by a whole number");
-  }
-  else
-  {
-    size = std::to_string(geometry.views[0].Columns()) + "x" + std::to_string(geometry.views[0].Rows());
-  }
+  const int factor = RegistrationShrinkFactor(geometry.views, options.size);
+  const std::string size = std::to_string(geometry.views[0].Columns() / factor) + "x" + std::to_string(geometry.views[0].Rows() / factor);
 
   XRaySimulation simulation;
   simulation.noise = options.scenario == "clean" ? 0.0 : options.noise;
@@ -255,6 +244,7 @@ int RunEvaluate(const EvaluateOptions& options)
   for (int trial = 1; trial <= options.trials; ++trial)
   {
     const Pose truth = DrawMisalignment(options.seed, trial, options, random);
+    const double initialMTRE = MeanTRE(targets, truth, Pose{}, roomIso);
     bool simulated = false;
     std::vector<RegistrationView> views;
     for (const std::string& approach : options.approaches)
@@ -284,7 +274,7 @@ int RunEvaluate(const EvaluateOptions& options)
       r.scenario = options.scenario;
       r.initial = truth.Parameters();
       r.initialTranslation = truth.translation.norm();
-      r.initialMTRE = MeanTRE(targets, truth, Pose{}, roomIso);
+      r.initialMTRE = initialMTRE;
       r.status = result.ok ? "ok" : "failed";
       const std::array<double, 6> estimated = result.misalignment.Parameters();
       for (int a = 0; a < 6; ++a)

@@ -44,6 +44,23 @@ std::string JsonString(const std::string& text)
 
 } // namespace
 
+int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::string& size)
+{
+  if (size.empty())
+    return 1;
+  const auto [columns, rows] = ParseSize(size, "--size");
+  const int factor = panels[0].Columns() / columns;
+  for (const XRayView& panel : panels)
+  {
+    if (factor < 1 || panel.Columns() != columns * factor || panel.Rows() != rows * factor)
+    {
+      throw InputError("--size", size + " must divide imager " + panel.name + "'s " + std::to_string(panel.Columns()) + "x" +
+          std::to_string(panel.Rows()) + " pixels by a whole number");
+    }
+  }
+  return factor;
+}
+
 RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
 {
   RegistrationInputs inputs;
@@ -61,20 +78,7 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
   {
     throw InputError("--roi", "give one ROI per X-ray, in the same order");
   }
-  int factor = 1;
-  if (!options.size.empty())
-  {
-    const auto [columns, rows] = ParseSize(options.size, "--size");
-    factor = panels[0].Columns() / columns;
-    for (const XRayView& panel : panels)
-    {
-      if (factor < 1 || panel.Columns() != columns * factor || panel.Rows() != rows * factor)
-      {
-        throw InputError("--size", options.size + " must divide imager " + panel.name + "'s " +
-            std::to_string(panel.Columns()) + "x" + std::to_string(panel.Rows()) + " pixels by a whole number");
-      }
-    }
-  }
+  const int factor = RegistrationShrinkFactor(panels, options.size);
   for (size_t v = 0; v < panels.size(); ++v)
   {
     vtkSmartPointer<vtkImageData> xray = ReadXRayImage(options.xrays[v]);

@@ -22,6 +22,12 @@ struct RegistrationInputs
   Eigen::Isometry3d planned = Eigen::Isometry3d::Identity(); ///< CT (LPS) -> Room, planned set-up
 };
 
+/**
+ * The whole factor by which `size` ("COLSxROWS", empty = 1) divides every panel; throws
+ * xp::InputError naming --size when it does not.
+ */
+int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::string& size);
+
 /** Reads the CT, geometry, X-rays and ROIs of `options`; throws xp::InputError naming the file or option. */
 RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options);
 

@@ -290,6 +290,20 @@ Eigen::Vector3d ResultTranslation(const std::string& result, const std::string& 
   return t;
 }
 
+/** Simulated X-rays with noise and kV contrast (and X-ray-only objects) into `out`. */
+xp::SimulateOptions KVSimulation(const std::string& ct, const std::string& pose, double noise, bool objects, const std::string& out)
+{
+  xp::SimulateOptions simulate;
+  simulate.ct = ct;
+  simulate.geometry = Geometry;
+  simulate.pose = pose;
+  simulate.noise = noise;
+  simulate.kvContrast = true;
+  simulate.addObjects = objects;
+  simulate.outputDirectory = out;
+  return simulate;
+}
+
 xp::RegisterOptions RegisterSimulated(const std::string& simulated, const std::string& out)
 {
   xp::RegisterOptions options;
@@ -306,13 +320,7 @@ xp::RegisterOptions RegisterSimulated(const std::string& simulated, const std::s
 TEST(Commands, RegisterRecoversASimulatedMisalignment)
 {
   ASSERT_EQ(std::system("rm -rf cmd-reg-sim cmd-reg"), 0);
-  xp::SimulateOptions simulate;
-  simulate.ct = PhantomCT();
-  simulate.geometry = Geometry;
-  simulate.pose = "5,-3,2,1,-1,1.5";
-  simulate.noise = 20.0;
-  simulate.kvContrast = true;
-  simulate.outputDirectory = "cmd-reg-sim";
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "5,-3,2,1,-1,1.5", 20.0, false, "cmd-reg-sim");
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   const xp::RegisterOptions options = RegisterSimulated("cmd-reg-sim", "cmd-reg");
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
@@ -377,14 +385,7 @@ TEST(Commands, RegisterBadInputExitsWithTwo)
 TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
 {
   ASSERT_EQ(std::system("rm -rf cmd-obj-sim cmd-obj-masked cmd-obj-unmasked"), 0);
-  xp::SimulateOptions simulate;
-  simulate.ct = PhantomCT();
-  simulate.geometry = Geometry;
-  simulate.pose = "6,4,-5,-2,1.5,2.5";
-  simulate.noise = 20.0;
-  simulate.kvContrast = true;
-  simulate.addObjects = true;
-  simulate.outputDirectory = "cmd-obj-sim";
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "6,4,-5,-2,1.5,2.5", 20.0, true, "cmd-obj-sim");
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   double error[2];
   for (int masked = 0; masked < 2; ++masked)
@@ -412,14 +413,7 @@ TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
     GTEST_SKIP() << "shared pelvis CT not found at " << SharedPelvis << " (../shared/data beside the project)";
   }
   ASSERT_EQ(std::system("rm -rf cmd-pel-sim cmd-pel-reg cmd-pel-other"), 0);
-  xp::SimulateOptions simulate;
-  simulate.ct = SharedPelvis;
-  simulate.geometry = Geometry;
-  simulate.pose = "7,-5,4,2,-1.5,2.5";
-  simulate.noise = 30.0;
-  simulate.kvContrast = true;
-  simulate.addObjects = true;
-  simulate.outputDirectory = "cmd-pel-sim";
+  const xp::SimulateOptions simulate = KVSimulation(SharedPelvis, "7,-5,4,2,-1.5,2.5", 30.0, true, "cmd-pel-sim");
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   xp::RegisterOptions options = RegisterSimulated("cmd-pel-sim", "cmd-pel-reg");
   options.ct = SharedPelvis;
@@ -476,14 +470,7 @@ std::vector<std::string> ReportPictures()
 TEST(Commands, RegisterWritesAReportThatReportRebuilds)
 {
   ASSERT_EQ(std::system("rm -rf cmd-report-sim cmd-report cmd-report-again"), 0);
-  xp::SimulateOptions simulate;
-  simulate.ct = PhantomCT();
-  simulate.geometry = Geometry;
-  simulate.pose = "4,-2,3,1,0.5,-1";
-  simulate.noise = 20.0;
-  simulate.kvContrast = true;
-  simulate.addObjects = true;
-  simulate.outputDirectory = "cmd-report-sim";
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "4,-2,3,1,0.5,-1", 20.0, true, "cmd-report-sim");
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   xp::RegisterOptions options = RegisterSimulated("cmd-report-sim", "cmd-report");
   options.reportDirectory = "cmd-report/report";
