@@ -15,12 +15,12 @@ namespace xp
 namespace
 {
 
-/** Zeroed float storage aligned to 2 MiB and marked for transparent huge pages: a ray touches
- *  voxels far apart in memory, and 4 KiB pages would cost a TLB miss on most samples. */
-std::shared_ptr<float> AllocateVoxels(size_t count)
+/** Zeroed storage aligned to 2 MiB and marked for transparent huge pages: a ray touches voxels
+ *  far apart in memory, and 4 KiB pages would cost a TLB miss on most samples. */
+std::shared_ptr<uint16_t> AllocateVoxels(size_t count)
 {
   constexpr size_t HugePage = size_t(2) << 20;
-  const size_t bytes = (count * sizeof(float) + HugePage - 1) / HugePage * HugePage;
+  const size_t bytes = (count * sizeof(uint16_t) + HugePage - 1) / HugePage * HugePage;
   void* memory = nullptr;
   if (posix_memalign(&memory, HugePage, bytes) != 0)
   {
@@ -28,7 +28,7 @@ std::shared_ptr<float> AllocateVoxels(size_t count)
   }
   madvise(memory, bytes, MADV_HUGEPAGE);
   std::memset(memory, 0, bytes);
-  return std::shared_ptr<float>(static_cast<float*>(memory), [](float* p) { std::free(p); });
+  return std::shared_ptr<uint16_t>(static_cast<uint16_t*>(memory), [](uint16_t* p) { std::free(p); });
 }
 
 } // namespace
@@ -55,11 +55,19 @@ AttenuationVolume::AttenuationVolume(
   this->PaddedToCT = indexToCT * Eigen::Translation3d(-1.0, -1.0, -1.0);
   this->MinSpacing = indexToCT.linear().colwise().norm().minCoeff();
   const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
-  this->Mu = AllocateVoxels(nxy * this->Padded[2]);
+  this->Mu = AllocateVoxels(nxy * this->Padded[2] + 2);
   // mu = muWater (1 + HU/1000) = scale (HU + 1000): exactly 0 for air, so empty blocks are
   // found; voxels below airThreshold (noise in the air around the patient) count as air.
-  const float scale = static_cast<float>(muWater / 1000.0);
   const float air = static_cast<float>(airThreshold);
+  const size_t voxelCount = static_cast<size_t>(dims[0]) * dims[1] * dims[2];
+  float highest = air;
+  for (size_t n = 0; n < voxelCount; ++n)
+  {
+    highest = std::max(highest, hounsfield[n]);
+  }
+  const double highestMu = muWater / 1000.0 * std::max(0.0, highest + 1000.0);
+  this->Step = highestMu > 0.0 ? highestMu / 65535.0 : 1.0;
+  const float scale = static_cast<float>(muWater / 1000.0 / this->Step);
   vtkSMPTools::For(0, dims[2],
     [&](int k0, int k1)
     {
@@ -68,12 +76,29 @@ AttenuationVolume::AttenuationVolume(
         for (int j = 0; j < dims[1]; ++j)
         {
           const float* in = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
-          float* out = this->Mu.get() + (k + 1) * nxy + (j + 1) * nx + 1;
+          uint16_t* out = this->Mu.get() + (k + 1) * nxy + (j + 1) * nx + 1;
           for (int i = 0; i < dims[0]; ++i)
           {
-            out[i] = in[i] < air ? 0.0f : scale * std::max(0.0f, in[i] + 1000.0f);
+            const float steps = in[i] < air ? 0.0f : std::min(65535.0f, scale * std::max(0.0f, in[i] + 1000.0f));
+            out[i] = static_cast<uint16_t>(steps + 0.5f);
           }
         }
+      }
+    });
+
+  // The y-fastest copy, slice by slice.
+  const size_t ny = this->Padded[1];
+  this->MuYFastest = AllocateVoxels(nxy * this->Padded[2] + 2);
+  vtkSMPTools::For(0, this->Padded[2],
+    [&](int k0, int k1)
+    {
+      for (int k = k0; k < k1; ++k)
+      {
+        const uint16_t* in = this->Mu.get() + k * nxy;
+        uint16_t* out = this->MuYFastest.get() + k * nxy;
+        for (size_t j = 0; j < ny; ++j)
+          for (size_t i = 0; i < nx; ++i)
+            out[i * ny + j] = in[j * nx + i];
       }
     });
 
@@ -97,7 +122,7 @@ AttenuationVolume::AttenuationVolume(
             for (int z = bz * b; z < z1 && !any; ++z)
               for (int y = by * b; y < y1 && !any; ++y)
                 for (int x = bx * b; x < x1 && !any; ++x)
-                  any = this->Mu.get()[z * nxy + y * nx + x] > 0.0f;
+                  any = this->Mu.get()[z * nxy + y * nx + x] != 0;
             this->Occupied[(static_cast<size_t>(bz) * this->Blocks[1] + by) * this->Blocks[0] + bx] = any;
           }
         }
@@ -107,7 +132,8 @@ AttenuationVolume::AttenuationVolume(
 
 float AttenuationVolume::At(int i, int j, int k) const
 {
-  return this->Mu.get()[(static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1)];
+  return static_cast<float>(
+    this->Step * this->Mu.get()[(static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1)]);
 }
 
 double AttenuationVolume::OccupiedFraction() const

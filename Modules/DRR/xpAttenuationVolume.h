@@ -7,6 +7,12 @@
  * stored with one voxel of zeros around the volume, so trilinear sampling needs no bounds
  * checks, and an occupancy grid of 32^3-voxel blocks marks where any attenuation is, so rays skip
  * empty space. Build it once per CT and reuse it for every pose.
+ *
+ * mu is stored as 16-bit steps of Quantum() (the volume's largest mu / 65535): half the memory
+ * of floats, so more of the CT stays in cache, and the two x-neighbours of a sample fit in one
+ * 32-bit load, which halves the gathers of the ray caster. A second copy with y fastest does the
+ * same for rays that step along x. Air stays exactly 0; the rounding is below 1e-4 of bone's mu
+ * and averages out along a ray.
  */
 #ifndef xpAttenuationVolume_h
 #define xpAttenuationVolume_h
@@ -43,7 +49,13 @@ public:
   const Eigen::Vector3i& PaddedDimensions() const { return this->Padded; }
   /** Padded voxel index (original index + 1) -> CT mm. */
   const Eigen::Affine3d& PaddedIndexToCT() const { return this->PaddedToCT; }
-  const float* Voxels() const { return this->Mu.get(); }
+  /** Padded voxels, x fastest, in steps of Quantum(); two extra zeros after the last voxel let
+   *  a 32-bit load start at any voxel. */
+  const uint16_t* Voxels() const { return this->Mu.get(); }
+  /** The same voxels with y fastest, then x, then z: padded (x, y, z) at y + x * ny + z * nx * ny. */
+  const uint16_t* VoxelsYFastest() const { return this->MuYFastest.get(); }
+  /** mu (1/mm) of one step of Voxels(). */
+  double Quantum() const { return this->Step; }
   /** mu of original voxel (i, j, k). */
   float At(int i, int j, int k) const;
 
@@ -52,6 +64,8 @@ public:
   {
     return this->Occupied[(static_cast<size_t>(bz) * this->Blocks[1] + by) * this->Blocks[0] + bx] != 0;
   }
+  /** The occupancy flags, bx fastest: BlockOccupied(bx, by, bz) as one array. */
+  const uint8_t* OccupancyGrid() const { return this->Occupied.data(); }
   /** Smallest voxel spacing (mm), the default sampling step. */
   double MinimumSpacing() const { return this->MinSpacing; }
   double MuWater() const { return this->Water; }
@@ -64,10 +78,12 @@ private:
   Eigen::Vector3i Blocks = Eigen::Vector3i::Zero();
   Eigen::Affine3d PaddedToCT = Eigen::Affine3d::Identity();
   /** Padded voxels, on 2 MiB huge pages where the kernel allows (rays jump between slices). */
-  std::shared_ptr<float> Mu;
+  std::shared_ptr<uint16_t> Mu;
+  std::shared_ptr<uint16_t> MuYFastest;
   std::vector<uint8_t> Occupied;
   double MinSpacing = 1.0;
   double Water = 0.0;
+  double Step = 1.0;
 };
 
 } // namespace xp

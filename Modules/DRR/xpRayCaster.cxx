@@ -76,11 +76,11 @@ bool ClipToBox(const IndexRay& ray, const Eigen::Vector3d& lo, const Eigen::Vect
 }
 
 /**
- * Sum of trilinear samples k0 <= k < k1 at start + (k + 0.5) * step * direction. Built twice
- * (AVX2 and baseline) and picked at load time: the hot loop of every DRR.
+ * Sum of trilinear samples k0 <= k < k1 at start + (k + 0.5) * step * direction, in volume steps
+ * (AttenuationVolume::Quantum). Built twice (AVX2 and baseline) and picked at load time.
  */
-__attribute__((target_clones("avx2", "default"), noinline)) float SampleRun(const float* voxels, long nx, long nxy,
-  const float start[3], const float step[3], long k0, long k1, const float upper[3])
+__attribute__((target_clones("avx2", "default"), noinline)) float SampleRun(const uint16_t* voxels, long nx,
+  long nxy, const float start[3], const float step[3], long k0, long k1, const float upper[3])
 {
   float sum = 0.0f;
   for (long k = k0; k < k1; ++k)
@@ -91,11 +91,11 @@ __attribute__((target_clones("avx2", "default"), noinline)) float SampleRun(cons
     const float z = std::min(std::max(start[2] + s * step[2], 0.0f), upper[2]);
     const long ix = static_cast<long>(x), iy = static_cast<long>(y), iz = static_cast<long>(z);
     const float fx = x - ix, fy = y - iy, fz = z - iz;
-    const float* c = voxels + ix + iy * nx + iz * nxy;
-    const float c00 = c[0] + fx * (c[1] - c[0]);
-    const float c10 = c[nx] + fx * (c[nx + 1] - c[nx]);
-    const float c01 = c[nxy] + fx * (c[nxy + 1] - c[nxy]);
-    const float c11 = c[nxy + nx] + fx * (c[nxy + nx + 1] - c[nxy + nx]);
+    const uint16_t* c = voxels + ix + iy * nx + iz * nxy;
+    const float c00 = c[0] + fx * (float(c[1]) - c[0]);
+    const float c10 = c[nx] + fx * (float(c[nx + 1]) - c[nx]);
+    const float c01 = c[nxy] + fx * (float(c[nxy + 1]) - c[nxy]);
+    const float c11 = c[nxy + nx] + fx * (float(c[nxy + nx + 1]) - c[nxy + nx]);
     const float c0 = c00 + fy * (c10 - c00);
     const float c1 = c01 + fy * (c11 - c01);
     sum += c0 + fz * (c1 - c0);
@@ -106,12 +106,13 @@ __attribute__((target_clones("avx2", "default"), noinline)) float SampleRun(cons
 /**
  * Samples j0 <= j < j1 on the voxel planes of axis a: plane index m0 + sa*j along a, the two other
  * coordinates (b, c) linear in j. On a voxel plane trilinear interpolation is bilinear in the
- * other two axes: 4 loads a sample. Offsets are 32-bit (volumes hold < 2^31 voxels).
+ * other two axes: 4 voxels a sample. Axis b is the fastest of the layout read (stride 1), so a
+ * sample's two b-neighbours are adjacent. Offsets are 32-bit (volumes hold < 2^31 voxels).
  */
 struct PlaneRun
 {
-  const float* voxels;
-  int strideA, strideB, strideC, m0, sa;
+  const uint16_t* voxels;
+  int strideA, strideC, m0, sa;
   float b0, db, c0, dc, upperB, upperC;
 };
 
@@ -121,9 +122,9 @@ inline float PlaneSample(const PlaneRun& r, int j)
   const float c = std::min(std::max(r.c0 + static_cast<float>(j) * r.dc, 0.0f), r.upperC);
   const int ib = static_cast<int>(b), ic = static_cast<int>(c);
   const float fb = b - static_cast<float>(ib), fc = c - static_cast<float>(ic);
-  const float* v = r.voxels + (r.m0 + r.sa * j) * r.strideA + ib * r.strideB + ic * r.strideC;
-  const float low = v[0] + fb * (v[r.strideB] - v[0]);
-  const float high = v[r.strideC] + fb * (v[r.strideB + r.strideC] - v[r.strideC]);
+  const uint16_t* v = r.voxels + (r.m0 + r.sa * j) * r.strideA + ib + ic * r.strideC;
+  const float low = v[0] + fb * (float(v[1]) - v[0]);
+  const float high = v[r.strideC] + fb * (float(v[r.strideC + 1]) - v[r.strideC]);
   return low + fc * (high - low);
 }
 
@@ -137,100 +138,58 @@ float SamplePlanesScalar(const PlaneRun& r, int j0, int j1)
   return sum;
 }
 
-/** The same, eight planes at a time with AVX2 gathers (the hot loop of every DRR). */
+/**
+ * The same, eight planes at a time with AVX2 gathers (the hot loop of every DRR). One 32-bit
+ * gather element holds a voxel and its b-neighbour: two gathers fetch a sample's four voxels.
+ */
 __attribute__((target("avx2,fma"))) float SamplePlanesAVX2(const PlaneRun& r, int j0, int j1)
 {
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), low16 = _mm256_set1_epi32(0xFFFF);
   const __m256 zero = _mm256_setzero_ps(), upperB = _mm256_set1_ps(r.upperB), upperC = _mm256_set1_ps(r.upperC);
   const __m256 b0 = _mm256_set1_ps(r.b0), db = _mm256_set1_ps(r.db), c0 = _mm256_set1_ps(r.c0), dc = _mm256_set1_ps(r.dc);
-  const __m256i strideA = _mm256_set1_epi32(r.strideA * r.sa), strideB = _mm256_set1_epi32(r.strideB),
-                strideC = _mm256_set1_epi32(r.strideC), planeBase = _mm256_set1_epi32(r.m0 * r.strideA);
+  const __m256i strideC = _mm256_set1_epi32(r.strideC), end = _mm256_set1_epi32(j1);
+  const int* words = reinterpret_cast<const int*>(r.voxels); // scale 2: indices count voxels
+  const __m256i none = _mm256_setzero_si256();
+  // Plane offsets (m0 + sa j) strideA of the eight lanes, advanced by eight planes a step.
+  const int planeStep = r.sa * r.strideA;
+  __m256i plane = _mm256_add_epi32(_mm256_set1_epi32((r.m0 + r.sa * j0) * r.strideA),
+    _mm256_mullo_epi32(lane, _mm256_set1_epi32(planeStep)));
+  const __m256i planeAdvance = _mm256_set1_epi32(8 * planeStep);
   __m256 sum = _mm256_setzero_ps();
-  int j = j0;
-  for (; j + 8 <= j1; j += 8)
+  for (int j = j0; j < j1; j += 8, plane = _mm256_add_epi32(plane, planeAdvance))
   {
+    // Lanes past j1 (the last 1..7 samples) gather nothing, for their plane may lie outside the
+    // volume, and add zeros.
     const __m256i jj = _mm256_add_epi32(_mm256_set1_epi32(j), lane);
+    const __m256i active = _mm256_cmpgt_epi32(end, jj);
     const __m256 jf = _mm256_cvtepi32_ps(jj);
     const __m256 b = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, db, b0), zero), upperB);
     const __m256 c = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, dc, c0), zero), upperC);
     const __m256i ib = _mm256_cvttps_epi32(b), ic = _mm256_cvttps_epi32(c);
     const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
-    const __m256i base = _mm256_add_epi32(_mm256_add_epi32(planeBase, _mm256_mullo_epi32(jj, strideA)),
-      _mm256_add_epi32(_mm256_mullo_epi32(ib, strideB), _mm256_mullo_epi32(ic, strideC)));
-    const __m256 v00 = _mm256_i32gather_ps(r.voxels, base, 4);
-    const __m256 v10 = _mm256_i32gather_ps(r.voxels, _mm256_add_epi32(base, strideB), 4);
-    const __m256 v01 = _mm256_i32gather_ps(r.voxels, _mm256_add_epi32(base, strideC), 4);
-    const __m256 v11 = _mm256_i32gather_ps(r.voxels, _mm256_add_epi32(base, _mm256_add_epi32(strideB, strideC)), 4);
+    const __m256i base = _mm256_add_epi32(_mm256_add_epi32(plane, ib), _mm256_mullo_epi32(ic, strideC));
+    const __m256i w0 = _mm256_mask_i32gather_epi32(none, words, base, active, 2);
+    const __m256i w1 = _mm256_mask_i32gather_epi32(none, words, _mm256_add_epi32(base, strideC), active, 2);
+    const __m256 v00 = _mm256_cvtepi32_ps(_mm256_and_si256(w0, low16)), v10 = _mm256_cvtepi32_ps(_mm256_srli_epi32(w0, 16));
+    const __m256 v01 = _mm256_cvtepi32_ps(_mm256_and_si256(w1, low16)), v11 = _mm256_cvtepi32_ps(_mm256_srli_epi32(w1, 16));
     const __m256 low = _mm256_fmadd_ps(fb, _mm256_sub_ps(v10, v00), v00);
     const __m256 high = _mm256_fmadd_ps(fb, _mm256_sub_ps(v11, v01), v01);
     sum = _mm256_add_ps(sum, _mm256_fmadd_ps(fc, _mm256_sub_ps(high, low), low));
   }
   alignas(32) float lanes[8];
   _mm256_store_ps(lanes, sum);
-  float total = ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
-  return total + SamplePlanesScalar(r, j, j1);
-}
-
-/**
- * The same when axis b is x (strideB == 1): the two x-neighbours of a sample are adjacent, so one
- * 64-bit gather element fetches both. Half the gathered elements of the AVX2 loop, and gathers
- * cost per element.
- */
-__attribute__((target("avx512f,avx512dq,avx512vl,fma"))) float SamplePlanesPairedAVX512(
-  const PlaneRun& r, int j0, int j1)
-{
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256 zero = _mm256_setzero_ps(), upperB = _mm256_set1_ps(r.upperB), upperC = _mm256_set1_ps(r.upperC);
-  const __m256 b0 = _mm256_set1_ps(r.b0), db = _mm256_set1_ps(r.db), c0 = _mm256_set1_ps(r.c0), dc = _mm256_set1_ps(r.dc);
-  const __m256i strideA = _mm256_set1_epi32(r.strideA * r.sa), strideC = _mm256_set1_epi32(r.strideC),
-                planeBase = _mm256_set1_epi32(r.m0 * r.strideA);
-  const double* pairs = reinterpret_cast<const double*>(r.voxels); // scale 4: index counts floats
-  __m256 sum = _mm256_setzero_ps();
-  int j = j0;
-  for (; j + 8 <= j1; j += 8)
-  {
-    const __m256i jj = _mm256_add_epi32(_mm256_set1_epi32(j), lane);
-    const __m256 jf = _mm256_cvtepi32_ps(jj);
-    const __m256 b = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, db, b0), zero), upperB);
-    const __m256 c = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, dc, c0), zero), upperC);
-    const __m256i ib = _mm256_cvttps_epi32(b), ic = _mm256_cvttps_epi32(c);
-    const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
-    const __m256i base = _mm256_add_epi32(
-      _mm256_add_epi32(planeBase, _mm256_mullo_epi32(jj, strideA)), _mm256_add_epi32(ib, _mm256_mullo_epi32(ic, strideC)));
-    // Masked form with a zero source: the same instruction, without GCC's uninitialised-source warning.
-    const __m512d none = _mm512_setzero_pd();
-    const __m512i low2 = _mm512_castpd_si512(_mm512_mask_i32gather_pd(none, 0xFF, base, pairs, 4));
-    const __m512i high2 =
-      _mm512_castpd_si512(_mm512_mask_i32gather_pd(none, 0xFF, _mm256_add_epi32(base, strideC), pairs, 4));
-    const __m256 v00 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(low2));
-    const __m256 v10 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(_mm512_srli_epi64(low2, 32)));
-    const __m256 v01 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(high2));
-    const __m256 v11 = _mm256_castsi256_ps(_mm512_cvtepi64_epi32(_mm512_srli_epi64(high2, 32)));
-    const __m256 low = _mm256_fmadd_ps(fb, _mm256_sub_ps(v10, v00), v00);
-    const __m256 high = _mm256_fmadd_ps(fb, _mm256_sub_ps(v11, v01), v01);
-    sum = _mm256_add_ps(sum, _mm256_fmadd_ps(fc, _mm256_sub_ps(high, low), low));
-  }
-  alignas(32) float lanes[8];
-  _mm256_store_ps(lanes, sum);
-  float total = ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
-  return total + SamplePlanesScalar(r, j, j1);
+  return ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
 }
 
 const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-  __builtin_cpu_supports("avx512vl");
 
 float SamplePlanes(const PlaneRun& r, int j0, int j1)
 {
-  if (HaveAVX512 && r.strideB == 1)
-  {
-    return SamplePlanesPairedAVX512(r, j0, j1);
-  }
   return HaveAVX2 ? SamplePlanesAVX2(r, j0, j1) : SamplePlanesScalar(r, j0, j1);
 }
 
 /**
- * Calls run(start, end) for each stretch of the ray, in t (mm), that crosses occupied blocks
+ * Calls run(start, end) for each stretch of the ray, in t (mm), that crosses occupied
  * blocks: a 3D DDA over the blocks (Amanatides & Woo), at most bx + by + bz steps.
  */
 template <typename RunFunction>
@@ -239,25 +198,30 @@ void ForEachOccupiedRun(const AttenuationVolume& volume, const IndexRay& ray, do
   const double blockSize = 1 << AttenuationVolume::BlockShift;
   const Eigen::Vector3i& blocks = volume.BlockDimensions();
   const Eigen::Vector3d entry = ray.start + tEnter * ray.direction;
-  Eigen::Vector3i cell, stepCell;
-  Eigen::Vector3d tNext, tDelta;
+  // Per axis: the next boundary crossing (t), its spacing, the step in the flat block index, and
+  // how many more steps stay inside the grid. Scalars, not arrays, so they live in registers, and
+  // the step is branch-free: the loop's axis choice would mispredict on most rays.
+  double tNext[3], tDelta[3];
+  long stride[3], left[3];
+  long index = 0;
+  const long blockStrides[3] = { 1, blocks[0], static_cast<long>(blocks[0]) * blocks[1] };
   for (int a = 0; a < 3; ++a)
   {
-    cell[a] = std::clamp(static_cast<int>(entry[a] / blockSize), 0, blocks[a] - 1);
+    const int cell = std::clamp(static_cast<int>(entry[a] / blockSize), 0, blocks[a] - 1);
     const double d = ray.direction[a];
-    stepCell[a] = d > 0 ? 1 : -1;
-    tNext[a] = d == 0.0 ? Infinity : ((cell[a] + (d > 0 ? 1 : 0)) * blockSize - ray.start[a]) / d;
+    index += cell * blockStrides[a];
+    stride[a] = d > 0 ? blockStrides[a] : -blockStrides[a];
+    left[a] = d > 0 ? blocks[a] - 1 - cell : cell;
+    tNext[a] = d == 0.0 ? Infinity : ((cell + (d > 0 ? 1 : 0)) * blockSize - ray.start[a]) / d;
     tDelta[a] = d == 0.0 ? Infinity : blockSize / std::abs(d);
   }
+  double tx = tNext[0], ty = tNext[1], tz = tNext[2];
+  long lx = left[0], ly = left[1], lz = left[2];
+  const uint8_t* occupied = volume.OccupancyGrid();
   double t = tEnter, runStart = -1.0;
   while (t < tExit)
   {
-    int axis = 0;
-    if (tNext[1] < tNext[axis])
-      axis = 1;
-    if (tNext[2] < tNext[axis])
-      axis = 2;
-    if (volume.BlockOccupied(cell[0], cell[1], cell[2]))
+    if (occupied[index])
     {
       runStart = runStart < 0.0 ? t : runStart;
     }
@@ -266,10 +230,18 @@ void ForEachOccupiedRun(const AttenuationVolume& volume, const IndexRay& ray, do
       run(runStart, t);
       runStart = -1.0;
     }
-    t = std::min(tNext[axis], tExit);
-    cell[axis] += stepCell[axis];
-    tNext[axis] += tDelta[axis];
-    if (cell[axis] < 0 || cell[axis] >= blocks[axis])
+    // Step every axis whose boundary comes first (two at once through an edge).
+    const double tStep = std::min(tx, std::min(ty, tz));
+    const long sx = tx == tStep, sy = ty == tStep, sz = tz == tStep;
+    t = std::min(tStep, tExit);
+    index += sx * stride[0] + sy * stride[1] + sz * stride[2];
+    tx += sx ? tDelta[0] : 0.0;
+    ty += sy ? tDelta[1] : 0.0;
+    tz += sz ? tDelta[2] : 0.0;
+    lx -= sx;
+    ly -= sy;
+    lz -= sz;
+    if ((lx | ly | lz) < 0)
     {
       break;
     }
@@ -313,7 +285,7 @@ double TraceTrilinear(const AttenuationVolume& volume, const IndexRay& ray, doub
         sum += SampleRun(volume.Voxels(), nx, nxy, start, dir, k0, k1, upper);
       }
     });
-  return sum * step;
+  return sum * step * volume.Quantum();
 }
 
 /**
@@ -330,18 +302,20 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
   }
   int a = 0;
   ray.direction.cwiseAbs().maxCoeff(&a);
-  // Interpolate along x as axis b whenever x is not the stepping axis: x-neighbours are adjacent.
+  // Interpolate along b = x, or along b = y in the y-fastest copy when the ray steps along x: then
+  // the two b-neighbours of a sample are adjacent in memory.
   const int b = a == 0 ? 1 : 0, c = 3 - a - b;
   const double da = ray.direction[a];
   const int sa = da > 0 ? 1 : -1;
-  const int nx = volume.PaddedDimensions()[0], nxy = nx * volume.PaddedDimensions()[1];
-  const int strides[3] = { 1, nx, nxy };
+  const int nx = volume.PaddedDimensions()[0], ny = volume.PaddedDimensions()[1], nxy = nx * ny;
+  const bool yFastest = a == 0;
+  const int strides[3] = { yFastest ? ny : 1, yFastest ? 1 : nx, nxy }; // strides[b] == 1
   // First plane at or after the entry; planes follow every dt = 1/|da| mm.
   const double entryA = ray.start[a] + tEnter * da;
   const int m0 = static_cast<int>(da > 0 ? std::ceil(entryA) : std::floor(entryA));
   const double t0 = (m0 - ray.start[a]) / da, dt = 1.0 / std::abs(da);
   const Eigen::Vector3d first = ray.start + t0 * ray.direction, perPlane = dt * ray.direction;
-  const PlaneRun planes{ volume.Voxels(), strides[a], strides[b], strides[c], m0, sa, float(first[b]), float(perPlane[b]),
+  const PlaneRun planes{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), strides[a], strides[c], m0, sa, float(first[b]), float(perPlane[b]),
     float(first[c]), float(perPlane[c]), float(upper[b]), float(upper[c]) };
   double sum = 0.0;
   ForEachOccupiedRun(volume, ray, tEnter, tExit,
@@ -354,20 +328,14 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
         sum += SamplePlanes(planes, j0, j1);
       }
     });
-  return sum * dt;
+  return sum * dt * volume.Quantum();
 }
 
-/** Exact integral through nearest-neighbour voxels (Siddon / Amanatides & Woo voxel walk). */
-double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
+/** Exact integral of the voxels the ray crosses for tEnter <= t < tExit (a Siddon / Amanatides &
+ *  Woo voxel walk); the stretch lies inside the original voxels. */
+double SiddonRun(const AttenuationVolume& volume, const IndexRay& ray, double tEnter, double tExit)
 {
   const Eigen::Vector3i& dims = volume.Dimensions();
-  // Original voxel i (padded i + 1) spans padded coordinates [i + 0.5, i + 1.5].
-  const Eigen::Vector3d lo = Eigen::Vector3d::Constant(0.5), hi = dims.cast<double>() + lo;
-  double tEnter, tExit;
-  if (!ClipToBox(ray, lo, hi, tEnter, tExit))
-  {
-    return 0.0;
-  }
   const Eigen::Vector3d mid = ray.start + 0.5 * (tEnter + tExit) * ray.direction;
   const Eigen::Vector3d entry = ray.start + tEnter * ray.direction;
   Eigen::Vector3i voxel, stepVoxel;
@@ -413,6 +381,22 @@ double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
       break;
     }
   }
+  return sum;
+}
+
+/** Exact integral through nearest-neighbour voxels, walking only the occupied blocks. */
+double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
+{
+  // Original voxel i (padded i + 1) spans padded coordinates [i + 0.5, i + 1.5].
+  const Eigen::Vector3d lo = Eigen::Vector3d::Constant(0.5), hi = volume.Dimensions().cast<double>() + lo;
+  double tEnter, tExit;
+  if (!ClipToBox(ray, lo, hi, tEnter, tExit))
+  {
+    return 0.0;
+  }
+  double sum = 0.0;
+  ForEachOccupiedRun(volume, ray, tEnter, tExit,
+    [&](double runStart, double runEnd) { sum += SiddonRun(volume, ray, runStart, runEnd); });
   return sum;
 }
 

@@ -22,18 +22,19 @@ read -r iso < <(plastimatch header "$work/ct.mha" | awk '
   /^Origin/ {o1=$3; o2=$4; o3=$5} /^Size/ {s1=$3; s2=$4; s3=$5} /^Spacing/ {p1=$3; p2=$4; p3=$5}
   END {printf "%.3f %.3f %.3f\n", o1+(s1-1)/2*p1, o2+(s2-1)/2*p2, o3+(s3-1)/2*p3}')
 
-pm_drr() { # $1 = "cols rows"; panel 400 x 300 mm, SAD 1000, SID 1500, gantry angles 225 and 315 deg
-  plastimatch drr -I "$work/ct.mha" -O "$work/pm_" -i exact -r "$1" -z "400 300" --sad 1000 --sid 1500 \
+pm_drr() { # $1 = exact|uniform, $2 = "cols rows"; panel 400 x 300 mm, SAD 1000, SID 1500, gantry 225 and 315 deg
+  plastimatch drr -I "$work/ct.mha" -O "$work/pm_" -i "$1" -r "$2" -z "400 300" --sad 1000 --sid 1500 \
     -o "$iso" --vup "0 0 1" -t pfm -y 3.926990817 -N 90 -a 2 >/dev/null
 }
 seconds() { local s e; s=$(date +%s.%N); "$@"; e=$(date +%s.%N); echo "$e - $s" | bc -l; }
 best() { local b=999999 t; for _ in 1 2 3; do t=$(seconds "$@"); b=$(echo "if ($t < $b) $t else $b" | bc -l); done; echo "$b"; }
 
-small=$(best pm_drr "8 6")
-full=$(best pm_drr "$cols $rows")
 rays=$((2 * cols * rows))
-pm_time=$(echo "$full - $small" | bc -l)
+small=$(best pm_drr exact "8 6")
+pm_time=$(echo "$(best pm_drr exact "$cols $rows") - $small" | bc -l)
 pm_rate=$(echo "$rays / $pm_time / 1000000" | bc -l)
+pm_uniform_time=$(echo "$(best pm_drr uniform "$cols $rows") - $small" | bc -l)
+pm_uniform_rate=$(echo "$rays / $pm_uniform_time / 1000000" | bc -l)
 
 bench=$("$xpose" bench drr --ct "$ct" --geometry "$geometry" --sizes "$size" --mask-size 8x6 --valid 0.5 --repetitions 3)
 threads=$(nproc)
@@ -43,5 +44,7 @@ xp_sid=$(echo "$bench" | awk -v s="$size" -v t="$threads" '$1=="siddon" && $2==s
 printf 'CT %s, %s per view, 2 views, %s threads, isocentre (LPS) %s\n' "$ct" "$size" "$threads" "$iso"
 printf '%-34s %10s %12s %18s\n' "renderer" "time (s)" "M rays/s" "xpose/plastimatch"
 printf '%-34s %10.3f %12.2f %18s\n' "plastimatch drr -i exact" "$pm_time" "$pm_rate" "1.00"
+printf '%-34s %10.3f %12.2f %18.2f\n' "plastimatch drr -i uniform" "$pm_uniform_time" "$pm_uniform_rate" "$(echo "$pm_uniform_rate / $pm_rate" | bc -l)"
 printf '%-34s %10s %12.2f %18.2f\n' "xpose trilinear (per voxel plane)" "-" "$xp_tri" "$(echo "$xp_tri / $pm_rate" | bc -l)"
 printf '%-34s %10s %12.2f %18.2f\n' "xpose siddon (exact)" "-" "$xp_sid" "$(echo "$xp_sid / $pm_rate" | bc -l)"
+printf 'xpose trilinear / plastimatch uniform (the same sampling and accuracy): %.2f\n' "$(echo "$xp_tri / $pm_uniform_rate" | bc -l)"
