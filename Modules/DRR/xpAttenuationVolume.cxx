@@ -130,6 +130,34 @@ AttenuationVolume::AttenuationVolume(
     });
 }
 
+AttenuationVolume AttenuationVolume::Halved() const
+{
+  const Eigen::Vector3i half = (this->Dims + Eigen::Vector3i::Ones()) / 2;
+  // Back to HU, which the constructor takes: mean mu = muWater (1 + HU / 1000).
+  std::vector<float> hounsfield(static_cast<size_t>(half.prod()));
+  vtkSMPTools::For(0, half[2],
+    [&](int k0, int k1)
+    {
+      for (int k = k0; k < k1; ++k)
+        for (int j = 0; j < half[1]; ++j)
+          for (int i = 0; i < half[0]; ++i)
+          {
+            double sum = 0.0;
+            int count = 0;
+            for (int z = 2 * k; z < std::min(2 * k + 2, this->Dims[2]); ++z)
+              for (int y = 2 * j; y < std::min(2 * j + 2, this->Dims[1]); ++y)
+                for (int x = 2 * i; x < std::min(2 * i + 2, this->Dims[0]); ++x, ++count)
+                  sum += this->At(x, y, z);
+            hounsfield[(static_cast<size_t>(k) * half[1] + j) * half[0] + i] =
+              static_cast<float>(1000.0 * (sum / count / this->Water - 1.0));
+          }
+    });
+  // Half voxel i is centred where original voxels 2i and 2i + 1 meet.
+  const Eigen::Affine3d indexToCT = this->PaddedToCT * Eigen::Translation3d(1.5, 1.5, 1.5) * Eigen::Scaling(2.0);
+  // Air stays air: a mean of 0 maps to -1000 HU, below every threshold; partial air is kept.
+  return AttenuationVolume(hounsfield.data(), half, indexToCT, this->Water, -1000.0 + 1e-3);
+}
+
 float AttenuationVolume::At(int i, int j, int k) const
 {
   return static_cast<float>(

@@ -89,12 +89,15 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   StereoRegistrationResult result;
   const bool pyramid = settings.pyramid && views[0].view.Columns() >= 256 && views[0].view.Rows() >= 192;
 
-  // 1. Pre-alignment (5+1 DOF) with the user ROIs only.
+  // 1. Pre-alignment (5+1 DOF) with the user ROIs only. Half-size images are rendered from a
+  // half-resolution CT: their pixels are twice as wide, and a ray takes half the samples.
   Clock::time_point start = Clock::now();
+  const AttenuationVolume halfVolume = pyramid ? volume.Halved() : AttenuationVolume();
+  const AttenuationVolume& coarseVolume = pyramid ? halfVolume : volume;
   std::vector<RegistrationView> coarseViews;
   for (const RegistrationView& item : views)
     coarseViews.push_back(pyramid ? Half(item) : item);
-  StereoSimilarity coarse(volume, plannedCTToRoom, isocenter, coarseViews, settings.bins);
+  StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins);
   result.prealignment = PreAlign(coarse, Pose{}, isocenter);
   result.drrCount += coarse.RenderedDRRs();
   result.prealignSeconds = Since(start);
@@ -128,9 +131,9 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   result.maskSeconds = Since(start);
 
   // 3. 6-DOF fine alignment with masked DRRs, half resolution first. The coarse search runs twice,
-  // the second time from a start moved along the roll/lateral valley (roll turns about the axis
-  // perpendicular to both central rays, which two views see least): a landscape with two optima
-  // there cannot give a trustworthy result.
+  // the second time from its first result moved along the roll/lateral valley (roll turns about
+  // the axis perpendicular to both central rays, which two views see least): a landscape with two
+  // optima there cannot give a trustworthy result.
   start = Clock::now();
   Pose pose = result.prealignment.pose;
   PoseOptimizerSettings fineSettings;
@@ -140,10 +143,10 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     std::vector<RegistrationView> coarseSearch;
     for (const RegistrationView& item : masked)
       coarseSearch.push_back(pyramid ? Half(item) : item);
-    StereoSimilarity searchSimilarity(volume, plannedCTToRoom, isocenter, coarseSearch, settings.bins);
+    StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins);
     PoseOptimizerSettings searchSettings = fineSettings;
-    searchSettings.initialStepMM = 1.0;
-    searchSettings.initialStepDegrees = 0.5;
+    searchSettings.initialStepMM = 2.0;
+    searchSettings.initialStepDegrees = 1.0;
     searchSettings.toleranceMM = 0.1;
     searchSettings.toleranceDegrees = 0.05;
     searchSettings.maxRestarts = 3; // stalls happen in the long coarse travel; restarts are cheap here
@@ -153,7 +156,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     result.evaluations += first.evaluations;
     if (settings.maxSearchDisagreementMM > 0.0)
     {
-      Pose moved = pose;
+      Pose moved = first.pose;
       moved.roll += 1.5;
       moved.translation[0] += 1.5;
       result.stages.push_back({ "second coarse search", static_cast<int>(result.objectiveTrace.size()) });
@@ -168,8 +171,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       if (comparable && (result.searchDisagreementMM > settings.maxSearchDisagreementMM ||
         result.searchDisagreementDegrees > settings.maxSearchDisagreementDegrees))
       {
-        result.reasons.push_back(Format("two searches from starts 1.5 mm / 1.5 degrees apart ended %.2f mm and %.2f degrees "
-                                        "apart: the images do not fix the pose",
+        result.reasons.push_back(Format("a second search, started 1.5 mm / 1.5 degrees from the first's end, ended %.2f mm and "
+                                        "%.2f degrees away: the images do not fix the pose",
           result.searchDisagreementMM, result.searchDisagreementDegrees));
       }
       if (second.value > first.value)

@@ -28,8 +28,8 @@ struct StereoRegistrationSettings
   double maxRotation = 10.0;     ///< gate: and degrees
   double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
-  /** gate: a second coarse search, started 1.5 mm and 1.5 degrees away along the roll/lateral
-   *  valley, must end within these of the first (mm, degrees). 0 mm = no second search. */
+  /** gate: a second coarse search, started 1.5 mm and 1.5 degrees from the first one's end along
+   *  the roll/lateral valley, must end within these of it (mm, degrees). 0 mm = no second search. */
   double maxSearchDisagreementMM = 0.5;
   double maxSearchDisagreementDegrees = 0.2;
   /** gate: the searches count as disagreeing only when the worse one reaches this fraction of the
