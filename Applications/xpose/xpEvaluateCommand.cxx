@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstring>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <set>
@@ -120,11 +121,20 @@ vtkSmartPointer<vtkImageData> CropSlices(vtkImageData* ct, double fraction)
 }
 
 /** The settings that make trials comparable; a resumed run must have the same. */
+/** The same file named from another folder, or with ./ and ../, must resume the same run. */
+std::string CanonicalPath(const std::string& path)
+{
+  std::error_code error;
+  const std::filesystem::path canonical = std::filesystem::weakly_canonical(path, error);
+  return error ? path : canonical.string();
+}
+
 std::string SettingsText(const EvaluateOptions& o, const std::string& size)
 {
   std::ostringstream text;
   text.precision(10);
-  text << "{\n  \"ct\": \"" << o.ct << "\",\n  \"series\": \"" << o.series << "\",\n  \"geometry\": \"" << o.geometry
+  text << "{\n  \"ct\": \"" << CanonicalPath(o.ct) << "\",\n  \"series\": \"" << o.series << "\",\n  \"geometry\": \""
+       << CanonicalPath(o.geometry)
        << "\",\n  \"scenario\": \"" << o.scenario << "\",\n  \"size\": \"" << size << "\",\n  \"seed\": " << o.seed
        << ",\n  \"min_translation_mm\": " << o.minTranslation << ",\n  \"max_translation_mm\": " << o.maxTranslation
        << ",\n  \"max_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise

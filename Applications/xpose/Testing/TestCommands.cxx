@@ -4,6 +4,7 @@
 #include <dirent.h>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -580,6 +581,9 @@ TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
   ASSERT_EQ(xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(options); }), xp::ExitOk);
   std::ifstream again("cmd-evaluate/trials.csv");
   EXPECT_EQ(std::count(std::istreambuf_iterator<char>(again), std::istreambuf_iterator<char>(), '\n'), 5);
+  // The same CT named another way (absolute, through "/.") is the same run.
+  options.ct = std::filesystem::absolute(options.ct).string() + "/.";
+  EXPECT_EQ(xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(options); }), xp::ExitOk);
   options.seed = 8;
   EXPECT_EQ(xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(options); }), xp::ExitBadInput);
 }
