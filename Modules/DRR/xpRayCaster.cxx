@@ -466,10 +466,17 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
 
 void LineIntegralsTo12Bit(const float* lineIntegrals, const uint8_t* mask, long long count, uint16_t* transmission)
 {
-  for (long long i = 0; i < count; ++i)
-  {
-    transmission[i] = (mask && !mask[i]) ? 0 : static_cast<uint16_t>(std::lround(4095.0 * std::exp(-double(lineIntegrals[i]))));
-  }
+  // Once per DRR of every evaluation: on all threads, as the rays were (one exp a pixel).
+  vtkSMPTools::For(0LL, count,
+    [&](long long begin, long long end)
+    {
+      for (long long i = begin; i < end; ++i)
+      {
+        // + 0.5 and truncation: round half up, the values are never negative.
+        transmission[i] =
+          (mask && !mask[i]) ? 0 : static_cast<uint16_t>(4095.0 * std::exp(-double(lineIntegrals[i])) + 0.5);
+      }
+    });
 }
 
 } // namespace xp

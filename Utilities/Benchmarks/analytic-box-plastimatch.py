@@ -102,7 +102,7 @@ def xpose_views(work, size, method):
                          (r - (rows - 1) / 2) * pitch[1] * det["column_direction"][a] for a in range(3)]
                 expected.append(MU * chord(source, pixel))
         transmission = read_mha_floats(os.path.join(out, "drr_%s.mha" % imager["name"]))
-        # The MetaImage holds VTK rows (bottom first); the cube and views are symmetric top-bottom.
+        # drr_NAME.mha holds detector row 0 first, as `expected` does.
         values = [-math.log(t) if t > 0 else float("inf") for t in transmission]
         yield imager["name"], values, expected
 

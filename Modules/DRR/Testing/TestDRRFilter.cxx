@@ -43,6 +43,16 @@ vtkSmartPointer<vtkImageData> MarkerCT(Eigen::Vector3d& markerLPS)
   return ct;
 }
 
+/** A DRR filter rendering view A of `ct`, updated. */
+vtkSmartPointer<vtkXPDRRFilter> RenderViewA(vtkImageData* ct)
+{
+  auto drr = vtkSmartPointer<vtkXPDRRFilter>::New();
+  drr->SetInputData(ct);
+  drr->SetView(ViewA());
+  drr->Update();
+  return drr;
+}
+
 /** Room position of the marker with the planned HFS set-up (CT centre at the isocentre). */
 Eigen::Vector3d MarkerInRoom(vtkImageData* ct, const Eigen::Vector3d& markerLPS)
 {
@@ -77,10 +87,7 @@ TEST(vtkXPDRRFilter, MarkerLandsOnThePredictedPixel)
 {
   Eigen::Vector3d marker;
   vtkSmartPointer<vtkImageData> ct = MarkerCT(marker);
-  vtkNew<vtkXPDRRFilter> drr;
-  drr->SetInputData(ct);
-  drr->SetView(ViewA());
-  drr->Update();
+  vtkSmartPointer<vtkXPDRRFilter> drr = RenderViewA(ct);
   ASSERT_EQ(drr->GetNumberOfTracedRays(), 256 * 192);
 
   const Eigen::Vector3d room = MarkerInRoom(ct, marker);
@@ -111,10 +118,7 @@ TEST(vtkXPDRRFilter, MisalignmentMovesTheMarkerAsTheConventionSays)
 {
   Eigen::Vector3d marker;
   vtkSmartPointer<vtkImageData> ct = MarkerCT(marker);
-  vtkNew<vtkXPDRRFilter> drr;
-  drr->SetInputData(ct);
-  drr->SetView(ViewA());
-  drr->Update();
+  vtkSmartPointer<vtkXPDRRFilter> drr = RenderViewA(ct);
   const Eigen::Vector2d before = Centroid(drr->GetOutput(1));
 
   const Eigen::Vector3d room = MarkerInRoom(ct, marker);
