@@ -54,6 +54,7 @@ AttenuationVolume::AttenuationVolume(
   }
   this->PaddedToCT = indexToCT * Eigen::Translation3d(-1.0, -1.0, -1.0);
   this->MinSpacing = indexToCT.linear().colwise().norm().minCoeff();
+  this->MaxSpacing = indexToCT.linear().colwise().norm().maxCoeff();
   const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
   this->Mu = AllocateVoxels(nxy * this->Padded[2] + 2);
   // mu = muWater (1 + HU/1000) = scale (HU + 1000): exactly 0 for air, so empty blocks are

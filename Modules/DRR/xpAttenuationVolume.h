@@ -72,6 +72,8 @@ public:
   const uint8_t* OccupancyGrid() const { return this->Occupied.data(); }
   /** Smallest voxel spacing (mm), the default sampling step. */
   double MinimumSpacing() const { return this->MinSpacing; }
+  /** Largest voxel spacing (mm): how coarse the CT is along its worst axis. */
+  double MaximumSpacing() const { return this->MaxSpacing; }
   double MuWater() const { return this->Water; }
   /** Fraction of occupancy blocks that hold attenuation (for reports and benchmarks). */
   double OccupiedFraction() const;
@@ -86,6 +88,7 @@ private:
   std::shared_ptr<uint16_t> MuYFastest;
   std::vector<uint8_t> Occupied;
   double MinSpacing = 1.0;
+  double MaxSpacing = 1.0;
   double Water = 0.0;
   double Step = 1.0;
 };

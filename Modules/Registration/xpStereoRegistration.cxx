@@ -90,10 +90,12 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const bool pyramid = settings.pyramid && views[0].view.Columns() >= 256 && views[0].view.Rows() >= 192;
 
   // 1. Pre-alignment (5+1 DOF) with the user ROIs only. Half-size images are rendered from a
-  // half-resolution CT: their pixels are twice as wide, and a ray takes half the samples.
+  // half-resolution CT where its voxels stay fine enough: their pixels are twice as wide, and a
+  // ray takes half the samples.
   Clock::time_point start = Clock::now();
-  const AttenuationVolume halfVolume = pyramid ? volume.Halved() : AttenuationVolume();
-  const AttenuationVolume& coarseVolume = pyramid ? halfVolume : volume;
+  const bool halveCT = pyramid && 2.0 * volume.MaximumSpacing() <= settings.maxHalvedVoxelMM;
+  const AttenuationVolume halfVolume = halveCT ? volume.Halved() : AttenuationVolume();
+  const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
   std::vector<RegistrationView> coarseViews;
   for (const RegistrationView& item : views)
     coarseViews.push_back(pyramid ? Half(item) : item);
@@ -131,9 +133,10 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   result.maskSeconds = Since(start);
 
   // 3. 6-DOF fine alignment with masked DRRs, half resolution first. The coarse search runs twice,
-  // the second time from its first result moved along the roll/lateral valley (roll turns about
+  // the second time from the pre-alignment moved along the roll/lateral valley (roll turns about
   // the axis perpendicular to both central rays, which two views see least): a landscape with two
-  // optima there cannot give a trustworthy result.
+  // optima there cannot give a trustworthy result. Two independent starts, not the first end
+  // moved: a search from the first end can stall on the valley's flat floor short of it.
   start = Clock::now();
   Pose pose = result.prealignment.pose;
   PoseOptimizerSettings fineSettings;
@@ -156,7 +159,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     result.evaluations += first.evaluations;
     if (settings.maxSearchDisagreementMM > 0.0)
     {
-      Pose moved = first.pose;
+      Pose moved = pose;
       moved.roll += 1.5;
       moved.translation[0] += 1.5;
       result.stages.push_back({ "second coarse search", static_cast<int>(result.objectiveTrace.size()) });
@@ -171,7 +174,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       if (comparable && (result.searchDisagreementMM > settings.maxSearchDisagreementMM ||
         result.searchDisagreementDegrees > settings.maxSearchDisagreementDegrees))
       {
-        result.reasons.push_back(Format("a second search, started 1.5 mm / 1.5 degrees from the first's end, ended %.2f mm and "
+        result.reasons.push_back(Format("a second search, started 1.5 mm / 1.5 degrees from the first's start, ended %.2f mm and "
                                         "%.2f degrees away: the images do not fix the pose",
           result.searchDisagreementMM, result.searchDisagreementDegrees));
       }

@@ -22,14 +22,18 @@ struct StereoRegistrationSettings
 {
   bool entropyMask = true;       ///< exclude low-information regions (METHOD.md step 3)
   bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
+  /** The half-size stages render from a half-resolution CT only when its voxels stay within
+   *  this (mm); coarser voxels blur the bone edges the coarse search follows. */
+  double maxHalvedVoxelMM = 2.5;
   int bins = 32;                 ///< MI histogram bins
   int maxEvaluations = 400;      ///< per 6-DOF stage
   double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
   double maxRotation = 10.0;     ///< gate: and degrees
   double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
-  /** gate: a second coarse search, started 1.5 mm and 1.5 degrees from the first one's end along
-   *  the roll/lateral valley, must end within these of it (mm, degrees). 0 mm = no second search. */
+  /** gate: a second coarse search, started from the pre-alignment moved 1.5 mm and 1.5 degrees
+   *  along the roll/lateral valley, must end within these of the first one's end (mm, degrees).
+   *  0 mm = no second search. */
   double maxSearchDisagreementMM = 0.5;
   double maxSearchDisagreementDegrees = 0.2;
   /** gate: the searches count as disagreeing only when the worse one reaches this fraction of the
