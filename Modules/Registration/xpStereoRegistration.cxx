@@ -141,7 +141,10 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   Pose pose = result.prealignment.pose;
   PoseOptimizerSettings fineSettings;
   fineSettings.maxEvaluations = settings.maxEvaluations;
-  fineSettings.maxRestarts = 1; // one fresh simplex: the valley is flat at full resolution too
+  // No restart here: the coarse search's restarts already escaped the valley's stalls, and on 14
+  // pelvis trials a restart of the refinement cost a third of the time and changed the median
+  // mTRE by 0.006 mm.
+  fineSettings.maxRestarts = 0;
   {
     std::vector<RegistrationView> coarseSearch;
     for (const RegistrationView& item : masked)

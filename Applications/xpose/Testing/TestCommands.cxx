@@ -418,6 +418,9 @@ TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   xp::RegisterOptions options = RegisterSimulated("cmd-pel-sim", "cmd-pel-reg");
   options.ct = SharedPelvis;
+  // The pelvis resolution: at 256x192 (1.6 mm pixels at the panel) this case ends 0.53 mm
+  // along the roll/lateral valley, at 512x384 0.27 mm.
+  options.size = "512x384";
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   const std::string result = ReadText("cmd-pel-reg/result.json");
   const Eigen::Vector3d t = ResultTranslation(result);
