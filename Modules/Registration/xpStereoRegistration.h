@@ -31,12 +31,13 @@ struct StereoRegistrationSettings
   double maxRotation = 10.0;     ///< gate: and degrees
   double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
-  /** gate: a second coarse search, started from the pre-alignment moved 1.5 mm and 1.5 degrees
-   *  along the roll/lateral valley, must end within these of the first one's end (mm, degrees).
-   *  0 mm = no second search. */
+  /** gate: a second coarse search starts from the pre-alignment moved 1.5 mm and 1.5 degrees
+   *  along the roll/lateral valley. When it ends farther than these (mm, degrees) from the first
+   *  one's end, about as well, both ends are refined at full resolution, and the result fails if
+   *  they are still that far apart. 0 mm = no second search. */
   double maxSearchDisagreementMM = 0.5;
   double maxSearchDisagreementDegrees = 0.2;
-  /** gate: the searches count as disagreeing only when the worse one reaches this fraction of the
+  /** gate: two ends count as disagreeing only when the worse one reaches this fraction of the
    *  better one's objective (two nearly equal optima); a clearly worse end is a local optimum. */
   double ambiguousObjectiveRatio = 0.95;
 };
@@ -65,7 +66,7 @@ struct StereoRegistrationResult
   long long drrCount = 0;
   int evaluations = 0;
   bool converged = false;
-  double searchDisagreementMM = 0.0;     ///< between the two coarse searches
+  double searchDisagreementMM = 0.0;     ///< between the two searches' ends (refined, when both were)
   double searchDisagreementDegrees = 0.0;
   std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace

@@ -18,10 +18,11 @@ std::vector<xp::XRayView> StereoViews(int columns, int rows)
 
 struct Scene
 {
-  xp::CTVolumeData ct = xp::MakeHeadPhantom(2.0);
+  xp::CTVolumeData ct;
   xp::AttenuationVolume volume;
   Eigen::Isometry3d planned;
-  Scene()
+  explicit Scene(xp::CTVolumeData data = xp::MakeHeadPhantom(2.0))
+    : ct(std::move(data))
   {
     Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
     indexToCT.linear() = ct.direction * ct.spacing.asDiagonal();
@@ -249,4 +250,48 @@ TEST(StereoRegistrationAcceptance, UpTo20mmAnd5DegreesNineInTen)
 {
   Scene scene;
   EXPECT_GE(AccurateCases(scene, 10, 20.0, 5.0, 200), 9);
+}
+
+namespace
+{
+
+/** A bar along the CT's x axis (the room's lateral axis, HFS), 1 m long, so that its ends lie
+ *  outside both views: an elliptical body with a dense rod off its axis, the same at every x. */
+xp::CTVolumeData LateralBar()
+{
+  xp::CTVolumeData bar;
+  bar.dimensions = { 250, 40, 30 };
+  bar.spacing = { 4.0, 4.0, 4.0 };
+  bar.origin = -0.5 * bar.spacing.cwiseProduct((bar.dimensions - Eigen::Vector3i::Ones()).cast<double>());
+  bar.hounsfield.assign(static_cast<size_t>(bar.dimensions.prod()), -1000.0f);
+  for (int k = 0; k < bar.dimensions[2]; ++k)
+    for (int j = 0; j < bar.dimensions[1]; ++j)
+    {
+      const double y = bar.origin[1] + 4.0 * j, z = bar.origin[2] + 4.0 * k;
+      // Soft edges: a sharp edge sampled on 4 mm voxels aliases with the sampling phase of the
+      // rays, which would tell where along its axis the bar is.
+      const double body = 1.0 / (1.0 + std::exp((std::hypot(y / 60.0, z / 35.0) - 1.0) * 60.0 / 6.0));
+      const double rod = std::exp(-((y - 20.0) * (y - 20.0) + (z - 10.0) * (z - 10.0)) / (2.0 * 8.0 * 8.0));
+      const float hu = static_cast<float>(-1000.0 + 1040.0 * body + 1000.0 * rod);
+      for (int i = 0; i < bar.dimensions[0]; ++i)
+        bar.hounsfield[(static_cast<size_t>(k) * bar.dimensions[1] + j) * bar.dimensions[0] + i] = hu;
+    }
+  return bar;
+}
+
+} // namespace
+
+TEST(StereoRegistrationGate, FailsWhenTheImagesDoNotFixThePose)
+{
+  // Nothing in either view changes when the bar slides along its axis: the two searches, the
+  // second started 1.5 mm further along that axis, end apart and about equally good.
+  const Scene scene(LateralBar());
+  const xp::Pose truth = xp::Pose::Parse("2,-1,1,0.5,0.5,-0.5", "truth");
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), Simulate(scene, truth, 5));
+  EXPECT_FALSE(result.ok) << result.misalignment.ToString();
+  EXPECT_GT(result.searchDisagreementMM, 0.5);
+  EXPECT_TRUE(std::any_of(result.reasons.begin(), result.reasons.end(),
+    [](const std::string& reason) { return reason.find("do not fix the pose") != std::string::npos; }))
+    << (result.reasons.empty() ? "no reasons" : result.reasons.front());
 }
