@@ -202,15 +202,15 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       // Ends far apart matter only when both are about as good; a clearly worse end is a local
       // optimum that the better search left behind. Comparable ends far apart are refined both.
       if (!Agree(first.pose, second.pose, settings) &&
-        second.value >= settings.ambiguousObjectiveRatio * first.value)
+        second.value >= settings.refineBothObjectiveRatio * first.value)
         searchEnds.push_back(second.pose);
       RecordDisagreement(result, first.pose, second.pose);
     }
     result.drrCount += searchSimilarity.RenderedDRRs();
   }
   // Each remaining end is refined at full resolution, where a stall on the half-size images'
-  // flatter valley floor comes back: only ends that stay apart there, about equally good, mean
-  // the images do not fix the pose.
+  // flatter valley floor comes back or shows its lower objective: only ends that stay apart
+  // there and are equally good within ambiguousObjectiveRatio mean the images do not fix the pose.
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins);
   std::vector<PoseOptimizerResult> refined;
   for (size_t e = 0; e < searchEnds.size(); ++e)

@@ -37,9 +37,13 @@ struct StereoRegistrationSettings
    *  they are still that far apart. 0 mm = no second search. */
   double maxSearchDisagreementMM = 0.5;
   double maxSearchDisagreementDegrees = 0.2;
-  /** gate: two ends count as disagreeing only when the worse one reaches this fraction of the
-   *  better one's objective (two nearly equal optima); a clearly worse end is a local optimum. */
-  double ambiguousObjectiveRatio = 0.95;
+  /** Coarse ends apart are both refined when the worse one reaches this fraction of the better
+   *  one's objective; a clearly worse end is a local optimum the better search left behind. */
+  double refineBothObjectiveRatio = 0.95;
+  /** gate: refined ends apart fail the result when the worse one reaches this fraction of the
+   *  better one's objective: two optima the images cannot tell apart. On the pelvis a stall on
+   *  the roll/lateral valley ends 3-4 % lower; a pose the views cannot see, 0.2 % lower. */
+  double ambiguousObjectiveRatio = 0.99;
 };
 
 /** Where a stage of the 6-DOF search starts in the objective trace. */
