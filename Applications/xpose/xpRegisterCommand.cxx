@@ -157,6 +157,9 @@ int RunRegister(const RegisterOptions& options)
   json << "\"objective\": " << result.objective << "},\n  \"explained_information\": {";
   for (size_t v = 0; v < views.size(); ++v)
     json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.explained[v];
+  json << "},\n  \"uncovered_fraction\": {";
+  for (size_t v = 0; v < views.size(); ++v)
+    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.uncovered[v];
   json << "},\n  \"mask_valid_fraction\": {";
   for (size_t v = 0; v < views.size(); ++v)
     json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.validFraction[v];

@@ -76,6 +76,28 @@ bool Agree(const Pose& a, const Pose& b, const StereoRegistrationSettings& setti
     RotationApart(a, b) <= settings.maxSearchDisagreementDegrees;
 }
 
+/**
+ * Fraction of the valid pixels where the X-ray shows attenuation (below 80 % of its open-field
+ * level, its 99.5th percentile) but the DRR's ray meets no CT at all (full transmission): anatomy
+ * the CT does not cover at this pose.
+ */
+double UncoveredFraction(const std::vector<uint16_t>& xray, const std::vector<uint16_t>& drr, const std::vector<uint8_t>& mask)
+{
+  std::vector<uint16_t> sorted = xray;
+  const size_t rank = static_cast<size_t>(0.995 * (sorted.size() - 1));
+  std::nth_element(sorted.begin(), sorted.begin() + rank, sorted.end());
+  const double attenuated = 0.8 * sorted[rank];
+  long long valid = 0, uncovered = 0;
+  for (size_t i = 0; i < xray.size(); ++i)
+  {
+    if (!mask[i])
+      continue;
+    ++valid;
+    uncovered += drr[i] >= 4095 && xray[i] < attenuated;
+  }
+  return valid > 0 ? static_cast<double>(uncovered) / valid : 0.0;
+}
+
 void RecordDisagreement(StereoRegistrationResult& result, const Pose& a, const Pose& b)
 {
   result.searchDisagreementMM = TranslationApart(a, b);
@@ -263,6 +285,15 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     if (explained < settings.minExplained)
       result.reasons.push_back("view " + item.view.name +
         Format(": the final DRR explains %.3f of the X-ray's information (< %.3f)", explained, settings.minExplained));
+    // A CT shorter than the X-ray's field can slide to match the wrong level (a vertebra off)
+    // and still explain enough of what it covers: the anatomy it leaves unexplained shows it.
+    const double uncovered = UncoveredFraction(item.xray, fine.LastDRR(v), item.mask);
+    result.uncovered.push_back(uncovered);
+    if (uncovered > settings.maxUncovered)
+      result.reasons.push_back("view " + item.view.name +
+        Format(": %.0f %% of the valid pixels show anatomy where the CT has none at the result (> %.0f %%): the CT does "
+               "not cover what the X-ray shows; a ROI around the anatomy the CT covers can exclude the rest",
+          100.0 * uncovered, 100.0 * settings.maxUncovered));
     // A view whose own 2D registration still wants to move disagrees with the 3D result.
     const Motion2D residual = Register2D(item.xray, fine.LastDRR(v), item.view.Columns(), item.view.Rows(),
       item.view.Project(isocenter), item.mask.data(), settings.bins);

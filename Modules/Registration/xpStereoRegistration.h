@@ -31,6 +31,9 @@ struct StereoRegistrationSettings
   double maxRotation = 10.0;     ///< gate: and degrees
   double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
+  /** gate: largest fraction of a view's valid pixels that may show attenuation where the final
+   *  DRR's ray meets no CT (X-ray anatomy the CT does not cover at the result). */
+  double maxUncovered = 0.2;
   /** gate: a second coarse search starts from the pre-alignment moved 1.5 mm and 1.5 degrees
    *  along the roll/lateral valley. When it ends farther than these (mm, degrees) from the first
    *  one's end, about as well, both ends are refined at full resolution, and the result fails if
@@ -63,6 +66,7 @@ struct StereoRegistrationResult
   double objective = 0.0;
   std::vector<double> mutualInformation; ///< per view at the result
   std::vector<double> explained;         ///< MI / H(X-ray) per view
+  std::vector<double> uncovered;         ///< per view: valid pixels showing anatomy where the CT has none
   std::vector<double> validFraction;     ///< of each mask
   std::vector<std::vector<uint8_t>> masks;     ///< the masks used, in the DRR planes
   std::vector<std::vector<float>> entropyMaps; ///< empty without entropy masks

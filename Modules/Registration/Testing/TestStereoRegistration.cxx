@@ -295,3 +295,24 @@ TEST(StereoRegistrationGate, FailsWhenTheImagesDoNotFixThePose)
     [](const std::string& reason) { return reason.find("do not fix the pose") != std::string::npos; }))
     << (result.reasons.empty() ? "no reasons" : result.reasons.front());
 }
+
+TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
+{
+  // X-rays of the whole head, a planning CT of its central 40 % of slices (the evaluation's
+  // `truncated` case): the X-rays show anatomy the CT cannot explain at any pose.
+  const Scene full;
+  xp::CTVolumeData central = full.ct;
+  const int slices = full.ct.dimensions[2], kept = slices * 2 / 5, first = (slices - kept) / 2;
+  const size_t sliceSize = static_cast<size_t>(full.ct.dimensions[0]) * full.ct.dimensions[1];
+  central.dimensions[2] = kept;
+  central.origin += full.ct.direction.col(2) * (first * full.ct.spacing[2]);
+  central.hounsfield.assign(full.ct.hounsfield.begin() + first * sliceSize, full.ct.hounsfield.begin() + (first + kept) * sliceSize);
+  const Scene cropped(central);
+  const xp::Pose truth = xp::Pose::Parse("3,-2,2,1,-1,1.5", "truth");
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(cropped.volume, cropped.planned, Eigen::Vector3d::Zero(), Simulate(full, truth, 6));
+  EXPECT_FALSE(result.ok) << result.misalignment.ToString();
+  EXPECT_TRUE(std::any_of(result.reasons.begin(), result.reasons.end(),
+    [](const std::string& reason) { return reason.find("the CT does not cover what the X-ray shows") != std::string::npos; }))
+    << (result.reasons.empty() ? "no reasons" : result.reasons.front());
+}
