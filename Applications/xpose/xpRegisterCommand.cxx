@@ -167,7 +167,8 @@ int RunRegister(const RegisterOptions& options)
        << ",\n  \"timing_s\": {\"read\": " << readSeconds << ", \"prealign\": " << result.prealignSeconds
        << ", \"mask\": " << result.maskSeconds << ", \"fine\": " << result.fineSeconds << ", \"total\": " << totalSeconds
        << "},\n  \"search_disagreement\": {\"mm\": " << result.searchDisagreementMM
-       << ", \"degrees\": " << result.searchDisagreementDegrees << "},\n  \"reasons\": [";
+       << ", \"degrees\": " << result.searchDisagreementDegrees << ", \"objective_ratio\": " << result.searchObjectiveRatio
+       << "},\n  \"reasons\": [";
   for (size_t r = 0; r < reasons.size(); ++r)
     json << (r ? ", " : "") << JsonString(reasons[r]);
   // What `xpose report` needs to rebuild the pictures: the inputs (absolute paths) and the trace.

@@ -98,10 +98,11 @@ double UncoveredFraction(const std::vector<uint16_t>& xray, const std::vector<ui
   return valid > 0 ? static_cast<double>(uncovered) / valid : 0.0;
 }
 
-void RecordDisagreement(StereoRegistrationResult& result, const Pose& a, const Pose& b)
+void RecordDisagreement(StereoRegistrationResult& result, const PoseOptimizerResult& a, const PoseOptimizerResult& b)
 {
-  result.searchDisagreementMM = TranslationApart(a, b);
-  result.searchDisagreementDegrees = RotationApart(a, b);
+  result.searchDisagreementMM = TranslationApart(a.pose, b.pose);
+  result.searchDisagreementDegrees = RotationApart(a.pose, b.pose);
+  result.searchObjectiveRatio = std::min(a.value, b.value) / std::max(a.value, b.value);
 }
 
 } // namespace
@@ -226,7 +227,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       if (!Agree(first.pose, second.pose, settings) &&
         second.value >= settings.refineBothObjectiveRatio * first.value)
         searchEnds.push_back(second.pose);
-      RecordDisagreement(result, first.pose, second.pose);
+      RecordDisagreement(result, first, second);
     }
     result.drrCount += searchSimilarity.RenderedDRRs();
   }
@@ -243,7 +244,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   }
   if (refined.size() == 2)
   {
-    RecordDisagreement(result, refined[0].pose, refined[1].pose);
+    RecordDisagreement(result, refined[0], refined[1]);
     const double worse = std::min(refined[0].value, refined[1].value), better = std::max(refined[0].value, refined[1].value);
     if (!Agree(refined[0].pose, refined[1].pose, settings) && worse >= settings.ambiguousObjectiveRatio * better)
     {

@@ -45,7 +45,7 @@ struct StereoRegistrationSettings
   double refineBothObjectiveRatio = 0.95;
   /** gate: refined ends apart fail the result when the worse one reaches this fraction of the
    *  better one's objective: two optima the images cannot tell apart. On the pelvis a stall on
-   *  the roll/lateral valley ends 3-4 % lower; a pose the views cannot see, 0.2 % lower. */
+   *  the roll/lateral valley ends a few percent lower (Algorithms.md). */
   double ambiguousObjectiveRatio = 0.99;
 };
 
@@ -76,6 +76,7 @@ struct StereoRegistrationResult
   bool converged = false;
   double searchDisagreementMM = 0.0;     ///< between the two searches' ends (refined, when both were)
   double searchDisagreementDegrees = 0.0;
+  double searchObjectiveRatio = 1.0;     ///< the worse of those two ends' objectives over the better
   std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
