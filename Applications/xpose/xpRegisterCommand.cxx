@@ -185,7 +185,8 @@ int RunRegister(const RegisterOptions& options)
        << "},\n  \"convergence\": {\"stages\": [";
   for (size_t n = 0; n < result.stages.size(); ++n)
     json << (n ? ", " : "") << "{\"name\": " << JsonString(result.stages[n].name)
-         << ", \"first_evaluation\": " << result.stages[n].firstEvaluation << "}";
+         << ", \"first_evaluation\": " << result.stages[n].firstEvaluation << ", \"seconds\": " << result.stages[n].seconds
+         << "}";
   json << "], \"objective\": [";
   for (size_t n = 0; n < result.objectiveTrace.size(); ++n)
     json << (n ? ", " : "") << result.objectiveTrace[n];

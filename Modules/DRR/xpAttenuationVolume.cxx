@@ -6,7 +6,7 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <cstring>
+#include <cstdint>
 #include <sys/mman.h>
 
 namespace xp
@@ -16,19 +16,22 @@ namespace
 {
 
 /** Zeroed storage aligned to 2 MiB and marked for transparent huge pages: a ray touches voxels
- *  far apart in memory, and 4 KiB pages would cost a TLB miss on most samples. */
+ *  far apart in memory, and 4 KiB pages would cost a TLB miss on most samples. Fresh anonymous
+ *  pages are zero already, and are first touched by the threads that fill them. */
 std::shared_ptr<uint16_t> AllocateVoxels(size_t count)
 {
   constexpr size_t HugePage = size_t(2) << 20;
   const size_t bytes = (count * sizeof(uint16_t) + HugePage - 1) / HugePage * HugePage;
-  void* memory = nullptr;
-  if (posix_memalign(&memory, HugePage, bytes) != 0)
+  const size_t mapped = bytes + HugePage; // room to align the start
+  void* memory = mmap(nullptr, mapped, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (memory == MAP_FAILED)
   {
     throw Error("attenuation volume: out of memory (" + std::to_string(bytes >> 20) + " MiB)");
   }
-  madvise(memory, bytes, MADV_HUGEPAGE);
-  std::memset(memory, 0, bytes);
-  return std::shared_ptr<uint16_t>(static_cast<uint16_t*>(memory), [](uint16_t* p) { std::free(p); });
+  const uintptr_t address = reinterpret_cast<uintptr_t>(memory);
+  auto* aligned = reinterpret_cast<uint16_t*>((address + HugePage - 1) / HugePage * HugePage);
+  madvise(aligned, bytes, MADV_HUGEPAGE);
+  return std::shared_ptr<uint16_t>(aligned, [memory, mapped](uint16_t*) { munmap(memory, mapped); });
 }
 
 } // namespace
@@ -61,11 +64,7 @@ AttenuationVolume::AttenuationVolume(
   // found; voxels below airThreshold (noise in the air around the patient) count as air.
   const float air = static_cast<float>(airThreshold);
   const size_t voxelCount = static_cast<size_t>(dims[0]) * dims[1] * dims[2];
-  float highest = air;
-  for (size_t n = 0; n < voxelCount; ++n)
-  {
-    highest = std::max(highest, hounsfield[n]);
-  }
+  const float highest = std::max(air, *std::max_element(hounsfield, hounsfield + voxelCount));
   const double highestMu = muWater / 1000.0 * std::max(0.0, highest + 1000.0);
   this->Step = highestMu > 0.0 ? highestMu / 65535.0 : 1.0;
   const float scale = static_cast<float>(muWater / 1000.0 / this->Step);
@@ -143,14 +142,14 @@ AttenuationVolume AttenuationVolume::Halved() const
         for (int j = 0; j < half[1]; ++j)
           for (int i = 0; i < half[0]; ++i)
           {
-            double sum = 0.0;
+            long sum = 0; // in steps of Quantum()
             int count = 0;
             for (int z = 2 * k; z < std::min(2 * k + 2, this->Dims[2]); ++z)
               for (int y = 2 * j; y < std::min(2 * j + 2, this->Dims[1]); ++y)
                 for (int x = 2 * i; x < std::min(2 * i + 2, this->Dims[0]); ++x, ++count)
-                  sum += this->At(x, y, z);
+                  sum += this->Mu.get()[(static_cast<size_t>(z + 1) * this->Padded[1] + (y + 1)) * this->Padded[0] + (x + 1)];
             hounsfield[(static_cast<size_t>(k) * half[1] + j) * half[0] + i] =
-              static_cast<float>(1000.0 * (sum / count / this->Water - 1.0));
+              static_cast<float>(1000.0 * (this->Step * sum / count / this->Water - 1.0));
           }
     });
   // Half voxel i is centred where original voxels 2i and 2i + 1 meet.

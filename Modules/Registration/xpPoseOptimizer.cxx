@@ -20,14 +20,27 @@ Pose ToPose(const std::vector<double>& x)
 struct Context
 {
   const std::function<double(const Pose&)>* objective;
+  const std::function<bool(const Pose&, double)>* stopWhen;
   int evaluations = 0;
+  bool reachedTarget = false;
+  std::vector<double> target; ///< the pose that satisfied stopWhen, and its value
+  double targetValue = 0.0;
 };
 
 double Trampoline(const std::vector<double>& x, std::vector<double>&, void* data)
 {
   auto* context = static_cast<Context*>(data);
   ++context->evaluations;
-  return (*context->objective)(ToPose(x));
+  const Pose pose = ToPose(x);
+  const double value = (*context->objective)(pose);
+  if (*context->stopWhen && (*context->stopWhen)(pose, value))
+  {
+    context->reachedTarget = true;
+    context->target = x;
+    context->targetValue = value;
+    throw nlopt::forced_stop(); // NLopt stops gracefully and optimize() rethrows
+  }
+  return value;
 }
 
 } // namespace
@@ -68,6 +81,16 @@ PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const P
       : result.converged                             ? "tolerance reached"
                                                      : "stopped (NLopt code " + std::to_string(code) + ")";
   }
+  catch (const nlopt::forced_stop&)
+  {
+    if (!context.reachedTarget)
+      throw Error("pose optimiser", "stopped without reaching its target");
+    x = context.target;
+    result.value = context.targetValue;
+    result.converged = true;
+    result.reachedTarget = true;
+    result.stopReason = "target reached";
+  }
   catch (const nlopt::roundoff_limited&)
   {
     result.value = optimizer.last_optimum_value();
@@ -85,14 +108,20 @@ PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const P
 PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)
 {
-  Context context{ &objective };
+  Context context{ &objective, &settings.stopWhen };
   const std::array<double, 6> parameters = start.Parameters();
   std::vector<double> x(parameters.begin(), parameters.end());
   PoseOptimizerResult result = RunSimplex(context, x, start, settings, settings.maxEvaluations);
-  for (int restart = 0; restart < settings.maxRestarts && result.converged; ++restart)
+  for (int restart = 0; restart < settings.maxRestarts && result.converged && !result.reachedTarget; ++restart)
   {
     std::vector<double> again = x;
     const PoseOptimizerResult next = RunSimplex(context, again, start, settings, settings.maxEvaluations - context.evaluations);
+    if (next.reachedTarget)
+    {
+      x = again;
+      result = next;
+      break;
+    }
     if (!(next.value > result.value))
     {
       break; // the restart found nothing better: a true optimum, not a stall

@@ -26,6 +26,9 @@ struct PoseOptimizerSettings
   /** Fresh simplexes started from the optimum while they still improve it: Nelder-Mead stalls in
    *  narrow valleys (roll against lateral shift, the direction two views see least). */
   int maxRestarts = 3;
+  /** When set, the search ends as soon as an evaluated pose satisfies it (the target is reached);
+   *  that pose is the result. */
+  std::function<bool(const Pose&, double)> stopWhen;
 };
 
 struct PoseOptimizerResult
@@ -33,7 +36,8 @@ struct PoseOptimizerResult
   Pose pose;
   double value = 0.0;
   int evaluations = 0;
-  bool converged = false;  ///< stopped on the tolerances, not on the evaluation limit
+  bool converged = false;  ///< stopped on the tolerances or at stopWhen, not on the evaluation limit
+  bool reachedTarget = false; ///< stopped at stopWhen
   std::string stopReason;
 };
 

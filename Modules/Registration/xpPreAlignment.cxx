@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <nlopt.hpp>
+#include <vtkSMPTools.h>
 
 #include <cmath>
 
@@ -16,33 +17,42 @@ namespace
 
 constexpr double RadiansPerDegree = M_PI / 180.0;
 
-/** moving(T^-1 p) for every pixel p, bilinear; `valid` marks pixels whose source is inside. */
-void Warp(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion, std::vector<uint16_t>& out,
-  std::vector<uint8_t>& valid)
+/**
+ * moving(T^-1 p) for every pixel p, bilinear; `valid` marks pixels whose source is inside and
+ * that `fixedMask` (may be null) keeps. Rows on all threads: the 2D registrations of the
+ * pre-alignment and the quality gate warp full-size images hundreds of times.
+ */
+void Warp(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion, const uint8_t* fixedMask,
+  std::vector<uint16_t>& out, std::vector<uint8_t>& valid)
 {
   const double c = std::cos(-motion.rotation * RadiansPerDegree), s = std::sin(-motion.rotation * RadiansPerDegree);
-  for (int row = 0; row < rows; ++row)
-  {
-    for (int column = 0; column < columns; ++column)
+  vtkSMPTools::For(0, rows,
+    [&](int row0, int row1)
     {
-      // T^-1 p = R^-1 (p - center - shift) + center
-      const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
-      const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
-      const size_t i = static_cast<size_t>(row) * columns + column;
-      const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-      if (x0 < 0 || y0 < 0 || x0 + 1 >= columns || y0 + 1 >= rows)
+      for (int row = row0; row < row1; ++row)
       {
-        valid[i] = 0;
-        out[i] = 0;
-        continue;
+        for (int column = 0; column < columns; ++column)
+        {
+          // T^-1 p = R^-1 (p - center - shift) + center
+          const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
+          const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
+          const size_t i = static_cast<size_t>(row) * columns + column;
+          const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+          if (x0 < 0 || y0 < 0 || x0 + 1 >= columns || y0 + 1 >= rows || (fixedMask && !fixedMask[i]))
+          {
+            valid[i] = 0;
+            out[i] = 0;
+            continue;
+          }
+          const double fx = x - x0, fy = y - y0;
+          const uint16_t* p = moving.data() + static_cast<size_t>(y0) * columns + x0;
+          const double top = p[0] + fx * (p[1] - p[0]), bottom = p[columns] + fx * (p[columns + 1] - p[columns]);
+          // + 0.5 and truncation: round half up, the values are never negative.
+          out[i] = static_cast<uint16_t>(top + fy * (bottom - top) + 0.5);
+          valid[i] = 1;
+        }
       }
-      const double fx = x - x0, fy = y - y0;
-      const uint16_t* p = moving.data() + static_cast<size_t>(y0) * columns + x0;
-      const double top = p[0] + fx * (p[1] - p[0]), bottom = p[columns] + fx * (p[columns + 1] - p[columns]);
-      out[i] = static_cast<uint16_t>(std::lround(top + fy * (bottom - top)));
-      valid[i] = 1;
-    }
-  }
+    });
 }
 
 /** In-plane rotation (degrees, image coordinates) of a view's projection under a small 3D
@@ -77,17 +87,15 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
   }
   JointHistogram histogram(bins);
   std::vector<uint16_t> warped(pixels);
-  std::vector<uint8_t> valid(pixels), both(pixels);
+  std::vector<uint8_t> valid(pixels);
   Motion2D motion;
   motion.center = center;
   auto mi = [&](const std::vector<double>& x)
   {
     motion.shift = { x[0], x[1] };
     motion.rotation = x[2];
-    Warp(moving, columns, rows, motion, warped, valid);
-    for (size_t i = 0; i < pixels; ++i)
-      both[i] = valid[i] && (!fixedMask || fixedMask[i]);
-    histogram.Compute(fixed.data(), warped.data(), static_cast<long long>(pixels), both.data());
+    Warp(moving, columns, rows, motion, fixedMask, warped, valid);
+    histogram.Compute(fixed.data(), warped.data(), static_cast<long long>(pixels), valid.data());
     return histogram.MutualInformation();
   };
   using Objective = decltype(mi);

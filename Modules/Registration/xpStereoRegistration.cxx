@@ -47,6 +47,16 @@ RegistrationView Half(const RegistrationView& item)
   return half;
 }
 
+/** Starts a stage of the 6-DOF search; the previous one, if any, ends here. */
+void BeginStage(StereoRegistrationResult& result, const char* name, Clock::time_point& stageStart)
+{
+  const Clock::time_point now = Clock::now();
+  if (!result.stages.empty())
+    result.stages.back().seconds = std::chrono::duration<double>(now - stageStart).count();
+  stageStart = now;
+  result.stages.push_back({ name, static_cast<int>(result.objectiveTrace.size()) });
+}
+
 double Traced(StereoRegistrationResult& result, double objective)
 {
   result.objectiveTrace.push_back(objective);
@@ -195,6 +205,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   fineSettings.toleranceMM = 0.05;
   fineSettings.toleranceDegrees = 0.03;
   std::vector<Pose> searchEnds; // better first
+  Clock::time_point stageStart = start;
   {
     std::vector<RegistrationView> coarseSearch;
     for (const RegistrationView& item : masked)
@@ -207,7 +218,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     searchSettings.toleranceDegrees = 0.05;
     searchSettings.maxRestarts = 3; // stalls happen in the long coarse travel; restarts are cheap here
     const auto objective = [&](const Pose& p) { return Traced(result, searchSimilarity.Evaluate(p)); };
-    result.stages.push_back({ pyramid ? "coarse search (half resolution)" : "coarse search", 0 });
+    BeginStage(result, pyramid ? "coarse search (half resolution)" : "coarse search", stageStart);
     PoseOptimizerResult first = MaximizePose(objective, result.prealignment.pose, searchSettings);
     result.evaluations += first.evaluations;
     searchEnds.push_back(first.pose);
@@ -216,8 +227,13 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       Pose moved = result.prealignment.pose;
       moved.roll += 1.5;
       moved.translation[0] += 1.5;
-      result.stages.push_back({ "second coarse search", static_cast<int>(result.objectiveTrace.size()) });
-      PoseOptimizerResult second = MaximizePose(objective, moved, searchSettings);
+      BeginStage(result, "second coarse search", stageStart);
+      // Once the second search stands where the first ended, about as high, it has found the
+      // same optimum: the rest of its travel would only polish it.
+      PoseOptimizerSettings secondSettings = searchSettings;
+      secondSettings.stopWhen = [&](const Pose& pose, double value)
+      { return Agree(pose, first.pose, settings) && value >= settings.sameOptimumObjectiveRatio * first.value; };
+      PoseOptimizerResult second = MaximizePose(objective, moved, secondSettings);
       result.evaluations += second.evaluations;
       if (second.value > first.value)
         std::swap(first, second);
@@ -238,7 +254,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   std::vector<PoseOptimizerResult> refined;
   for (size_t e = 0; e < searchEnds.size(); ++e)
   {
-    result.stages.push_back({ e == 0 ? "fine" : "fine from the second search's end", static_cast<int>(result.objectiveTrace.size()) });
+    BeginStage(result, e == 0 ? "fine" : "fine from the second search's end", stageStart);
     refined.push_back(MaximizePose([&](const Pose& p) { return Traced(result, fine.Evaluate(p)); }, searchEnds[e], fineSettings));
     result.evaluations += refined.back().evaluations;
   }
@@ -263,6 +279,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   result.correction = fineResult.pose.Inverse();
   result.mutualInformation = fine.LastMutualInformation();
   result.fineSeconds = Since(start);
+  result.stages.back().seconds = Since(stageStart);
 
   // 4. Quality gate.
   if (!fineResult.converged)

@@ -43,6 +43,9 @@ struct StereoRegistrationSettings
   /** Coarse ends apart are both refined when the worse one reaches this fraction of the better
    *  one's objective; a clearly worse end is a local optimum the better search left behind. */
   double refineBothObjectiveRatio = 0.95;
+  /** The second coarse search stops once it evaluates a pose that agrees with the first one's
+   *  end (within the distances above) and reaches this fraction of its objective. */
+  double sameOptimumObjectiveRatio = 0.99;
   /** gate: refined ends apart fail the result when the worse one reaches this fraction of the
    *  better one's objective: two optima the images cannot tell apart. On the pelvis a stall on
    *  the roll/lateral valley ends a few percent lower (Algorithms.md). */
@@ -54,6 +57,7 @@ struct RegistrationStage
 {
   std::string name;
   int firstEvaluation = 0;
+  double seconds = 0.0; ///< wall time of the stage
 };
 
 struct StereoRegistrationResult

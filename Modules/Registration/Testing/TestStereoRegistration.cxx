@@ -96,6 +96,37 @@ TEST(PoseOptimizer, RecoversAKnownMisalignmentWithTheRightSigns)
 
 #include "xpPreAlignment.h"
 
+TEST(PoseOptimizer, StopsAtTheTargetWithThePoseThatReachedIt)
+{
+  // A smooth peak at (3, -2, 1) mm, (1, 0.5, -1) degrees; the target is its 1 mm neighbourhood.
+  const xp::Pose peak = xp::Pose::FromParameters(std::array<double, 6>{ 3.0, -2.0, 1.0, 1.0, 0.5, -1.0 }.data());
+  const auto distance = [&](const xp::Pose& p)
+  {
+    return (p.translation - peak.translation).norm() + std::abs(p.pitch - peak.pitch) + std::abs(p.roll - peak.roll) +
+      std::abs(p.yaw - peak.yaw);
+  };
+  const auto objective = [&](const xp::Pose& p) { return -distance(p) * distance(p); };
+  xp::PoseOptimizerSettings settings;
+  settings.maxEvaluations = 2000;
+  const xp::PoseOptimizerResult full = xp::MaximizePose(objective, xp::Pose{}, settings);
+  ASSERT_TRUE(full.converged);
+  EXPECT_FALSE(full.reachedTarget);
+  EXPECT_LT(distance(full.pose), 0.1);
+
+  settings.stopWhen = [&](const xp::Pose& p, double value)
+  {
+    EXPECT_DOUBLE_EQ(value, objective(p));
+    return distance(p) < 1.0;
+  };
+  const xp::PoseOptimizerResult early = xp::MaximizePose(objective, xp::Pose{}, settings);
+  EXPECT_TRUE(early.reachedTarget);
+  EXPECT_TRUE(early.converged);
+  EXPECT_LT(distance(early.pose), 1.0);
+  EXPECT_GT(distance(early.pose), 0.1); // stopped on arrival, not at the peak
+  EXPECT_DOUBLE_EQ(early.value, objective(early.pose));
+  EXPECT_LT(early.evaluations, full.evaluations);
+}
+
 TEST(PreAlignment, InverseProjectionOfProjectedMotionsGivesTheTranslation)
 {
   // A pure 3D translation seen by both views: the projected shifts give it back exactly.
