@@ -21,6 +21,7 @@ for mode in masked unmasked; do
     --size "$size" $flag --out-dir "$work/$mode" >"$work/$mode.log" || status=$?
   echo "== $mode (exit $status)"
   grep -E '"status"|"misalignment"|"mask_valid_fraction"|"drr_count"|"evaluations"|"timing_s"' "$work/$mode/result.json"
+  grep -o '"stages": \[[^]]*\]' "$work/$mode/result.json"
 done
 echo "== truth: misalignment $pose (mm, degrees)"
 fine() { sed -n 's/.*"fine": \([0-9.]*\).*/\1/p' "$work/$1/result.json"; }
