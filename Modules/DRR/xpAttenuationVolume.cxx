@@ -147,7 +147,7 @@ AttenuationVolume AttenuationVolume::Halved() const
             for (int z = 2 * k; z < std::min(2 * k + 2, this->Dims[2]); ++z)
               for (int y = 2 * j; y < std::min(2 * j + 2, this->Dims[1]); ++y)
                 for (int x = 2 * i; x < std::min(2 * i + 2, this->Dims[0]); ++x, ++count)
-                  sum += this->Mu.get()[(static_cast<size_t>(z + 1) * this->Padded[1] + (y + 1)) * this->Padded[0] + (x + 1)];
+                  sum += this->Mu.get()[this->Offset(x, y, z)];
             hounsfield[(static_cast<size_t>(k) * half[1] + j) * half[0] + i] =
               static_cast<float>(1000.0 * (this->Step * sum / count / this->Water - 1.0));
           }
@@ -160,8 +160,7 @@ AttenuationVolume AttenuationVolume::Halved() const
 
 float AttenuationVolume::At(int i, int j, int k) const
 {
-  return static_cast<float>(
-    this->Step * this->Mu.get()[(static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1)]);
+  return static_cast<float>(this->Step * this->Mu.get()[this->Offset(i, j, k)]);
 }
 
 double AttenuationVolume::OccupiedFraction() const

@@ -79,6 +79,12 @@ public:
   double OccupiedFraction() const;
 
 private:
+  /** Offset in Voxels() of original voxel (i, j, k). */
+  size_t Offset(int i, int j, int k) const
+  {
+    return (static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1);
+  }
+
   Eigen::Vector3i Dims = Eigen::Vector3i::Zero();
   Eigen::Vector3i Padded = Eigen::Vector3i::Zero();
   Eigen::Vector3i Blocks = Eigen::Vector3i::Zero();

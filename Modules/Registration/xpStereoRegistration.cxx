@@ -205,7 +205,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   fineSettings.toleranceMM = 0.05;
   fineSettings.toleranceDegrees = 0.03;
   std::vector<Pose> searchEnds; // better first
-  Clock::time_point stageStart = start;
+  Clock::time_point stageStart; // set by BeginStage
   {
     std::vector<RegistrationView> coarseSearch;
     for (const RegistrationView& item : masked)
@@ -258,6 +258,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     refined.push_back(MaximizePose([&](const Pose& p) { return Traced(result, fine.Evaluate(p)); }, searchEnds[e], fineSettings));
     result.evaluations += refined.back().evaluations;
   }
+  result.stages.back().seconds = Since(stageStart);
   if (refined.size() == 2)
   {
     RecordDisagreement(result, refined[0], refined[1]);
@@ -279,7 +280,6 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   result.correction = fineResult.pose.Inverse();
   result.mutualInformation = fine.LastMutualInformation();
   result.fineSeconds = Since(start);
-  result.stages.back().seconds = Since(stageStart);
 
   // 4. Quality gate.
   if (!fineResult.converged)
