@@ -109,8 +109,9 @@ int RunBenchDRR(const BenchOptions& options)
   std::vector<int> threadCounts{ 1 };
   if (cores > 1)
     threadCounts.push_back(cores);
-  for (RayCastMethod method : { RayCastMethod::Trilinear, RayCastMethod::Siddon })
+  for (const std::string& name : options.methods)
   {
+    const RayCastMethod method = name == "siddon" ? RayCastMethod::Siddon : RayCastMethod::Trilinear;
     for (const std::string& text : options.sizes)
     {
       const auto [columns, rows] = ParseSize(text, "--sizes");
@@ -123,7 +124,7 @@ int RunBenchDRR(const BenchOptions& options)
         if (threads == 1)
           single = seconds;
         std::printf("%-10s %-9s %-7d %10lld %12.4f %14.2f %9.2fx\n",
-          method == RayCastMethod::Siddon ? "siddon" : "trilinear", text.c_str(), threads, rays, seconds,
+          name.c_str(), text.c_str(), threads, rays, seconds,
           rays / seconds / 1e6, single / seconds);
       }
     }

@@ -55,6 +55,7 @@ struct BenchOptions
   std::string series;
   std::string geometry;
   std::vector<std::string> sizes{ "256x192", "512x384", "1024x768" };
+  std::vector<std::string> methods{ "trilinear", "siddon" };
   std::string maskSize = "1024x768";
   std::vector<double> validFractions{ 0.10, 0.25, 0.50 };
   int repetitions = 3;

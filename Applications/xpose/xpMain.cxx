@@ -40,6 +40,9 @@ int main(int argc, char** argv)
   benchDRR->add_option("--sizes", bench.sizes, "Output sizes COLSxROWS")->capture_default_str();
   benchDRR->add_option("--mask-size", bench.maskSize, "Size for the masked runs")->capture_default_str();
   benchDRR->add_option("--valid", bench.validFractions, "Valid fractions for the masked runs")->capture_default_str();
+  benchDRR->add_option("--methods", bench.methods, "Ray casting methods of the unmasked table")
+    ->check(CLI::IsMember({ "trilinear", "siddon" }))
+    ->capture_default_str();
   benchDRR->add_option("--repetitions", bench.repetitions, "Runs per figure (the median is printed)")
     ->capture_default_str();
 

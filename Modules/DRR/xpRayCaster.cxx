@@ -1,3 +1,7 @@
+
+
+
+
 #include "xpRayCaster.h"
 
 #include "xpAttenuationVolume.h"
@@ -139,61 +143,12 @@ float SamplePlanesScalar(const PlaneRun& r, int j0, int j1)
 }
 
 /**
- * The same, eight planes at a time with AVX2 gathers (the hot loop of every DRR). One 32-bit
- * gather element holds a voxel and its b-neighbour: two gathers fetch a sample's four voxels.
+ * Walks the 32^3 blocks that the ray crosses from tEnter to tExit (a 3D DDA, Amanatides & Woo, at
+ * most bx + by + bz steps) and calls visit(occupied, t) with each block's flag and the t (mm) at
+ * which the ray enters it, while visit returns true. Returns the t at which the walk ended.
  */
-__attribute__((target("avx2,fma"))) float SamplePlanesAVX2(const PlaneRun& r, int j0, int j1)
-{
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), low16 = _mm256_set1_epi32(0xFFFF);
-  const __m256 zero = _mm256_setzero_ps(), upperB = _mm256_set1_ps(r.upperB), upperC = _mm256_set1_ps(r.upperC);
-  const __m256 b0 = _mm256_set1_ps(r.b0), db = _mm256_set1_ps(r.db), c0 = _mm256_set1_ps(r.c0), dc = _mm256_set1_ps(r.dc);
-  const __m256i strideC = _mm256_set1_epi32(r.strideC), end = _mm256_set1_epi32(j1);
-  const int* words = reinterpret_cast<const int*>(r.voxels); // scale 2: indices count voxels
-  const __m256i none = _mm256_setzero_si256();
-  // Plane offsets (m0 + sa j) strideA of the eight lanes, advanced by eight planes a step.
-  const int planeStep = r.sa * r.strideA;
-  __m256i plane = _mm256_add_epi32(_mm256_set1_epi32((r.m0 + r.sa * j0) * r.strideA),
-    _mm256_mullo_epi32(lane, _mm256_set1_epi32(planeStep)));
-  const __m256i planeAdvance = _mm256_set1_epi32(8 * planeStep);
-  __m256 sum = _mm256_setzero_ps();
-  for (int j = j0; j < j1; j += 8, plane = _mm256_add_epi32(plane, planeAdvance))
-  {
-    // Lanes past j1 (the last 1..7 samples) gather nothing, for their plane may lie outside the
-    // volume, and add zeros.
-    const __m256i jj = _mm256_add_epi32(_mm256_set1_epi32(j), lane);
-    const __m256i active = _mm256_cmpgt_epi32(end, jj);
-    const __m256 jf = _mm256_cvtepi32_ps(jj);
-    const __m256 b = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, db, b0), zero), upperB);
-    const __m256 c = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, dc, c0), zero), upperC);
-    const __m256i ib = _mm256_cvttps_epi32(b), ic = _mm256_cvttps_epi32(c);
-    const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
-    const __m256i base = _mm256_add_epi32(_mm256_add_epi32(plane, ib), _mm256_mullo_epi32(ic, strideC));
-    const __m256i w0 = _mm256_mask_i32gather_epi32(none, words, base, active, 2);
-    const __m256i w1 = _mm256_mask_i32gather_epi32(none, words, _mm256_add_epi32(base, strideC), active, 2);
-    const __m256 v00 = _mm256_cvtepi32_ps(_mm256_and_si256(w0, low16)), v10 = _mm256_cvtepi32_ps(_mm256_srli_epi32(w0, 16));
-    const __m256 v01 = _mm256_cvtepi32_ps(_mm256_and_si256(w1, low16)), v11 = _mm256_cvtepi32_ps(_mm256_srli_epi32(w1, 16));
-    const __m256 low = _mm256_fmadd_ps(fb, _mm256_sub_ps(v10, v00), v00);
-    const __m256 high = _mm256_fmadd_ps(fb, _mm256_sub_ps(v11, v01), v01);
-    sum = _mm256_add_ps(sum, _mm256_fmadd_ps(fc, _mm256_sub_ps(high, low), low));
-  }
-  alignas(32) float lanes[8];
-  _mm256_store_ps(lanes, sum);
-  return ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7]));
-}
-
-const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-
-float SamplePlanes(const PlaneRun& r, int j0, int j1)
-{
-  return HaveAVX2 ? SamplePlanesAVX2(r, j0, j1) : SamplePlanesScalar(r, j0, j1);
-}
-
-/**
- * Calls run(start, end) for each stretch of the ray, in t (mm), that crosses occupied
- * blocks: a 3D DDA over the blocks (Amanatides & Woo), at most bx + by + bz steps.
- */
-template <typename RunFunction>
-void ForEachOccupiedRun(const AttenuationVolume& volume, const IndexRay& ray, double tEnter, double tExit, RunFunction run)
+template <typename Visit>
+double WalkBlocks(const AttenuationVolume& volume, const IndexRay& ray, double tEnter, double tExit, Visit visit)
 {
   const double blockSize = 1 << AttenuationVolume::BlockShift;
   const Eigen::Vector3i& blocks = volume.BlockDimensions();
@@ -218,17 +173,12 @@ void ForEachOccupiedRun(const AttenuationVolume& volume, const IndexRay& ray, do
   double tx = tNext[0], ty = tNext[1], tz = tNext[2];
   long lx = left[0], ly = left[1], lz = left[2];
   const uint8_t* occupied = volume.OccupancyGrid();
-  double t = tEnter, runStart = -1.0;
+  double t = tEnter;
   while (t < tExit)
   {
-    if (occupied[index])
+    if (!visit(occupied[index] != 0, t))
     {
-      runStart = runStart < 0.0 ? t : runStart;
-    }
-    else if (runStart >= 0.0)
-    {
-      run(runStart, t);
-      runStart = -1.0;
+      return t;
     }
     // Step every axis whose boundary comes first (two at once through an edge).
     const double tStep = std::min(tx, std::min(ty, tz));
@@ -246,10 +196,65 @@ void ForEachOccupiedRun(const AttenuationVolume& volume, const IndexRay& ray, do
       break;
     }
   }
+  return std::min(t, tExit);
+}
+
+/** Calls run(start, end) for each stretch of the ray, in t (mm), that crosses occupied blocks. */
+template <typename RunFunction>
+void ForEachOccupiedRun(const AttenuationVolume& volume, const IndexRay& ray, double tEnter, double tExit, RunFunction run)
+{
+  double runStart = -1.0;
+  const double tEnd = WalkBlocks(volume, ray, tEnter, tExit,
+    [&](bool occupied, double t)
+    {
+      if (occupied)
+      {
+        runStart = runStart < 0.0 ? t : runStart;
+      }
+      else if (runStart >= 0.0)
+      {
+        run(runStart, t);
+        runStart = -1.0;
+      }
+      return true;
+    });
   if (runStart >= 0.0)
   {
-    run(runStart, std::min(t, tExit));
+    run(runStart, tEnd);
   }
+}
+
+/** The t at which the ray enters its first occupied block after tEnter, Infinity if none. */
+double FirstOccupied(const AttenuationVolume& volume, const IndexRay& ray, double tEnter, double tExit)
+{
+  double first = Infinity;
+  WalkBlocks(volume, ray, tEnter, tExit,
+    [&](bool occupied, double t)
+    {
+      first = occupied ? t : first;
+      return !occupied;
+    });
+  return first;
+}
+
+/**
+ * From where the ray enters its first occupied block to where it leaves its last one, walking in
+ * from both ends: only the empty blocks outside the patient are visited. False if none.
+ */
+bool OccupiedSpan(const AttenuationVolume& volume, const IndexRay& ray, double tEnter, double tExit, double& tFirst,
+  double& tLast)
+{
+  tFirst = FirstOccupied(volume, ray, tEnter, tExit);
+  if (tFirst == Infinity)
+  {
+    return false;
+  }
+  // The same walk on the reversed ray, whose u runs back from tExit: t = tEnter + tExit - u.
+  const double mirror = tEnter + tExit;
+  const IndexRay reversed{ ray.start + mirror * ray.direction, -ray.direction, ray.length };
+  const double uLast = FirstOccupied(volume, reversed, tEnter, mirror - tFirst);
+  tLast = uLast == Infinity ? tExit : mirror - uLast;
+  return true;
 }
 
 /** Clips a ray to where trilinear samples may be taken: padded coordinates in [0, padded - 1). */
@@ -289,16 +294,32 @@ double TraceTrilinear(const AttenuationVolume& volume, const IndexRay& ray, doub
 }
 
 /**
- * Trilinear line integral sampled once per voxel plane of the ray's dominant axis (Joseph's
- * scheme): the step is spacing / |cos| along the ray, and each sample is bilinear.
+ * A ray set up for Joseph's scheme: one sample on every voxel plane of its dominant axis a (the
+ * step is spacing / |cos| along the ray), each sample bilinear on its plane.
  */
-double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
+struct PlaneRay
 {
-  double tEnter, tExit;
-  Eigen::Vector3d upper;
-  if (!ClipForInterpolation(volume, ray, tEnter, tExit, upper))
+  PlaneRun planes{};
+  int axis = -1; ///< a; -1 when the ray misses the volume
+  double tEnter = 0.0, tExit = 0.0;
+  double t0 = 0.0; ///< t of sample j = 0, the first plane at or after the entry
+  double dt = 0.0; ///< mm between planes along the ray
+
+  /** The samples j0 <= j < j1 that lie in [runStart, runEnd). */
+  void SamplesIn(double runStart, double runEnd, int& j0, int& j1) const
   {
-    return 0.0;
+    j0 = std::max(0, static_cast<int>(std::ceil((runStart - this->t0) / this->dt)));
+    j1 = static_cast<int>(std::ceil((std::min(runEnd, this->tExit) - this->t0) / this->dt));
+  }
+};
+
+PlaneRay SetUpPlaneRay(const AttenuationVolume& volume, const IndexRay& ray)
+{
+  PlaneRay out;
+  Eigen::Vector3d upper;
+  if (!ClipForInterpolation(volume, ray, out.tEnter, out.tExit, upper))
+  {
+    return out;
   }
   int a = 0;
   ray.direction.cwiseAbs().maxCoeff(&a);
@@ -306,29 +327,182 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
   // the two b-neighbours of a sample are adjacent in memory.
   const int b = a == 0 ? 1 : 0, c = 3 - a - b;
   const double da = ray.direction[a];
-  const int sa = da > 0 ? 1 : -1;
   const int nx = volume.PaddedDimensions()[0], ny = volume.PaddedDimensions()[1], nxy = nx * ny;
   const bool yFastest = a == 0;
   const int strides[3] = { yFastest ? ny : 1, yFastest ? 1 : nx, nxy }; // strides[b] == 1
-  // First plane at or after the entry; planes follow every dt = 1/|da| mm.
-  const double entryA = ray.start[a] + tEnter * da;
+  const double entryA = ray.start[a] + out.tEnter * da;
   const int m0 = static_cast<int>(da > 0 ? std::ceil(entryA) : std::floor(entryA));
-  const double t0 = (m0 - ray.start[a]) / da, dt = 1.0 / std::abs(da);
-  const Eigen::Vector3d first = ray.start + t0 * ray.direction, perPlane = dt * ray.direction;
-  const PlaneRun planes{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), strides[a], strides[c], m0, sa, float(first[b]), float(perPlane[b]),
-    float(first[c]), float(perPlane[c]), float(upper[b]), float(upper[c]) };
+  out.axis = a;
+  out.t0 = (m0 - ray.start[a]) / da;
+  out.dt = 1.0 / std::abs(da);
+  const Eigen::Vector3d first = ray.start + out.t0 * ray.direction, perPlane = out.dt * ray.direction;
+  out.planes = PlaneRun{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), strides[a], strides[c], m0,
+    da > 0 ? 1 : -1, float(first[b]), float(perPlane[b]), float(first[c]), float(perPlane[c]), float(upper[b]),
+    float(upper[c]) };
+  return out;
+}
+
+/** Trilinear line integral on the voxel planes, one ray at a time, only in occupied blocks. */
+double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
+{
+  const PlaneRay planeRay = SetUpPlaneRay(volume, ray);
+  if (planeRay.axis < 0)
+  {
+    return 0.0;
+  }
   double sum = 0.0;
-  ForEachOccupiedRun(volume, ray, tEnter, tExit,
+  ForEachOccupiedRun(volume, ray, planeRay.tEnter, planeRay.tExit,
     [&](double runStart, double runEnd)
     {
-      const int j0 = std::max(0, static_cast<int>(std::ceil((runStart - t0) / dt)));
-      const int j1 = static_cast<int>(std::ceil((std::min(runEnd, tExit) - t0) / dt));
+      int j0, j1;
+      planeRay.SamplesIn(runStart, runEnd, j0, j1);
       if (j1 > j0)
       {
-        sum += SamplePlanes(planes, j0, j1);
+        sum += SamplePlanesScalar(planeRay.planes, j0, j1);
       }
     });
-  return sum * dt * volume.Quantum();
+  return sum * planeRay.dt * volume.Quantum();
+}
+
+/** Eight rays sampled together, lane r for ray r; lanes with first >= last take no samples. */
+struct RayPacket
+{
+  static constexpr int Size = 8;
+  PlaneRay rays[Size];
+  int first[Size] = {}; ///< first sample j in an occupied block
+  int last[Size] = {};  ///< one past the last
+};
+
+/**
+ * The line integrals (in volume steps) of a packet's rays on `axis` stepping in direction `sa`,
+ * with AVX2 gathers; lanes of other rays get 0. One iteration samples the same voxel plane for
+ * all eight rays: neighbours on the detector, they read a few cache lines that they share, where
+ * one ray at a time would stream each of its lines through the cache once per ray. Samples and
+ * their values are those of PlaneSample; in empty blocks between occupied ones they are 0.
+ */
+__attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packet, int axis, int sa, float* sums)
+{
+  constexpr int Size = RayPacket::Size;
+  // The planes ahead whose lines are fetched while this one is sampled: a plane's lines are far
+  // from the last one's (a slice or a row apart), and without it every plane waits for memory.
+  constexpr int PrefetchPlanes = 12;
+  alignas(32) int planeOfFirst[Size], beforeFirst[Size], last[Size];
+  alignas(32) float b0[Size], db[Size], c0[Size], dc[Size];
+  // Sample j of ray r lies on plane m = m0_r + sa j; with q = sa m, j = q - sa m0_r in every lane.
+  int qBegin = std::numeric_limits<int>::max(), qEnd = std::numeric_limits<int>::min();
+  const PlaneRun* common = nullptr;
+  for (int r = 0; r < Size; ++r)
+  {
+    const PlaneRay& ray = packet.rays[r];
+    const bool mine = ray.axis == axis && ray.planes.sa == sa && packet.first[r] < packet.last[r];
+    planeOfFirst[r] = mine ? sa * ray.planes.m0 : 0;
+    beforeFirst[r] = mine ? packet.first[r] - 1 : 0;
+    last[r] = mine ? packet.last[r] : 0;
+    b0[r] = ray.planes.b0, db[r] = ray.planes.db, c0[r] = ray.planes.c0, dc[r] = ray.planes.dc;
+    if (mine)
+    {
+      common = &ray.planes;
+      qBegin = std::min(qBegin, planeOfFirst[r] + packet.first[r]);
+      qEnd = std::max(qEnd, planeOfFirst[r] + packet.last[r]);
+    }
+  }
+  if (!common)
+  {
+    std::fill(sums, sums + Size, 0.0f);
+    return;
+  }
+  const __m256i vPlaneOfFirst = _mm256_load_si256(reinterpret_cast<const __m256i*>(planeOfFirst));
+  const __m256i vBeforeFirst = _mm256_load_si256(reinterpret_cast<const __m256i*>(beforeFirst));
+  const __m256i vLast = _mm256_load_si256(reinterpret_cast<const __m256i*>(last));
+  const __m256 vb0 = _mm256_load_ps(b0), vdb = _mm256_load_ps(db), vc0 = _mm256_load_ps(c0), vdc = _mm256_load_ps(dc);
+  const __m256i low16 = _mm256_set1_epi32(0xFFFF), none = _mm256_setzero_si256();
+  const __m256 zero = _mm256_setzero_ps(), upperB = _mm256_set1_ps(common->upperB),
+               upperC = _mm256_set1_ps(common->upperC);
+  const __m256i strideC = _mm256_set1_epi32(common->strideC);
+  const uint16_t* voxels = common->voxels;
+  const int* words = reinterpret_cast<const int*>(voxels); // scale 2: indices count voxels
+  const int planeStride = sa * common->strideA;          // m strideA = q planeStride
+  __m256 sum = _mm256_setzero_ps();
+  for (int q = qBegin; q < qEnd; ++q)
+  {
+    const __m256i j = _mm256_sub_epi32(_mm256_set1_epi32(q), vPlaneOfFirst);
+    // Lanes outside their ray's samples gather nothing (their plane may lie outside the volume).
+    const __m256i active = _mm256_and_si256(_mm256_cmpgt_epi32(j, vBeforeFirst), _mm256_cmpgt_epi32(vLast, j));
+    const __m256 jf = _mm256_cvtepi32_ps(j);
+    const __m256 b = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, vdb, vb0), zero), upperB);
+    const __m256 c = _mm256_min_ps(_mm256_max_ps(_mm256_fmadd_ps(jf, vdc, vc0), zero), upperC);
+    const __m256i ib = _mm256_cvttps_epi32(b), ic = _mm256_cvttps_epi32(c);
+    const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
+    const __m256i base =
+      _mm256_add_epi32(_mm256_add_epi32(_mm256_set1_epi32(q * planeStride), ib), _mm256_mullo_epi32(ic, strideC));
+    // The lines of the packet's first and last ray, PrefetchPlanes ahead (hints: never faults).
+    const int aheadFirst = _mm256_cvtsi256_si32(base) + PrefetchPlanes * planeStride;
+    const int aheadLast = _mm256_extract_epi32(base, 7) + PrefetchPlanes * planeStride;
+    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadFirst), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadFirst + common->strideC), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadLast), _MM_HINT_T0);
+    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadLast + common->strideC), _MM_HINT_T0);
+    // One 32-bit element holds a voxel and its b-neighbour: two gathers fetch the four voxels.
+    const __m256i w0 = _mm256_mask_i32gather_epi32(none, words, base, active, 2);
+    const __m256i w1 = _mm256_mask_i32gather_epi32(none, words, _mm256_add_epi32(base, strideC), active, 2);
+    const __m256 v00 = _mm256_cvtepi32_ps(_mm256_and_si256(w0, low16)), v10 = _mm256_cvtepi32_ps(_mm256_srli_epi32(w0, 16));
+    const __m256 v01 = _mm256_cvtepi32_ps(_mm256_and_si256(w1, low16)), v11 = _mm256_cvtepi32_ps(_mm256_srli_epi32(w1, 16));
+    const __m256 low = _mm256_fmadd_ps(fb, _mm256_sub_ps(v10, v00), v00);
+    const __m256 high = _mm256_fmadd_ps(fb, _mm256_sub_ps(v11, v01), v01);
+    sum = _mm256_add_ps(sum, _mm256_fmadd_ps(fc, _mm256_sub_ps(high, low), low));
+  }
+  _mm256_storeu_ps(sums, sum);
+}
+
+const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+
+/**
+ * Line integrals of a packet's rays into integrals[0..Size-1]: one pass per distinct (axis, direction)
+ * among its rays, which is one except where the dominant axis changes across the detector.
+ */
+void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, float* integrals)
+{
+  RayPacket packet;
+  for (int r = 0; r < RayPacket::Size; ++r)
+  {
+    PlaneRay& planeRay = packet.rays[r];
+    planeRay = SetUpPlaneRay(volume, rays[r]);
+    if (planeRay.axis < 0)
+    {
+      continue;
+    }
+    // The packet samples from the first occupied block to the last, empty ones between included,
+    // and one sample more at either end against rounding (in empty blocks samples are exactly 0).
+    double tFirst, tLast;
+    if (OccupiedSpan(volume, rays[r], planeRay.tEnter, planeRay.tExit, tFirst, tLast))
+    {
+      int first, last, none, end;
+      planeRay.SamplesIn(planeRay.tEnter, planeRay.tExit, none, end); // end: past the ray's last sample
+      planeRay.SamplesIn(tFirst, tLast, first, last);
+      packet.first[r] = std::max(0, first - 1);
+      packet.last[r] = std::min(end, last + 1);
+    }
+  }
+  std::fill(integrals, integrals + RayPacket::Size, 0.0f);
+  bool done[RayPacket::Size] = {};
+  for (int r = 0; r < RayPacket::Size; ++r)
+  {
+    const PlaneRay& ray = packet.rays[r];
+    if (done[r] || ray.axis < 0 || packet.first[r] >= packet.last[r])
+    {
+      continue;
+    }
+    float sums[RayPacket::Size];
+    SamplePacketAVX2(packet, ray.axis, ray.planes.sa, sums);
+    for (int s = r; s < RayPacket::Size; ++s)
+    {
+      if (packet.rays[s].axis == ray.axis && packet.rays[s].planes.sa == ray.planes.sa)
+      {
+        done[s] = true;
+        integrals[s] = static_cast<float>(sums[s] * packet.rays[s].dt * volume.Quantum());
+      }
+    }
+  }
 }
 
 /** Exact integral of the voxels the ray crosses for tEnter <= t < tExit (a Siddon / Amanatides &
@@ -442,26 +616,62 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   }
   const long long traced = static_cast<long long>(order.size());
 
+  const auto rayOf = [&](int pixel)
+  {
+    const int column = pixel % grid.columns, row = pixel / grid.columns;
+    const Eigen::Vector3d toPixel = grid.origin + column * grid.columnStep + row * grid.rowStep - sourceInRoom;
+    IndexRay ray;
+    ray.length = toPixel.norm();
+    ray.start = source;
+    ray.direction = roomToIndex.linear() * (toPixel / ray.length);
+    return ray;
+  };
+  const bool packets =
+    settings.method == RayCastMethod::Trilinear && settings.stepSize <= 0.0 && settings.vectorized && HaveAVX2;
+  if (packets)
+  {
+    // Eight neighbours of a tile at a time (a tile's rows are 16 wide); the last packet is
+    // filled up with copies of its last ray.
+    const long long packetCount = (traced + RayPacket::Size - 1) / RayPacket::Size;
+    vtkSMPTools::For(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
+      [&](long long begin, long long end)
+      {
+        IndexRay rays[RayPacket::Size];
+        float integrals[RayPacket::Size];
+        for (long long p = begin; p < end; ++p)
+        {
+          const long long firstRay = p * RayPacket::Size;
+          for (int r = 0; r < RayPacket::Size; ++r)
+          {
+            rays[r] = rayOf(order[std::min(firstRay + r, traced - 1)]);
+          }
+          TracePacket(volume, rays, integrals);
+          for (long long r = 0; r < std::min<long long>(RayPacket::Size, traced - firstRay); ++r)
+          {
+            lineIntegrals[order[firstRay + r]] = integrals[r];
+          }
+        }
+      });
+    return traced;
+  }
   vtkSMPTools::For(0LL, traced, static_cast<long long>(TileColumns * TileRows),
     [&](long long begin, long long end)
     {
       for (long long n = begin; n < end; ++n)
       {
-        const int pixel = order[n];
-        const int column = static_cast<int>(pixel % grid.columns), row = static_cast<int>(pixel / grid.columns);
-        const Eigen::Vector3d target = grid.origin + column * grid.columnStep + row * grid.rowStep;
-        const Eigen::Vector3d toPixel = target - sourceInRoom;
-        IndexRay ray;
-        ray.length = toPixel.norm();
-        ray.start = source;
-        ray.direction = roomToIndex.linear() * (toPixel / ray.length);
+        const IndexRay ray = rayOf(order[n]);
         const double integral = settings.method == RayCastMethod::Siddon ? TraceSiddon(volume, ray)
           : settings.stepSize > 0.0 ? TraceTrilinear(volume, ray, settings.stepSize)
                                     : TracePlanes(volume, ray);
-        lineIntegrals[pixel] = static_cast<float>(integral);
+        lineIntegrals[order[n]] = static_cast<float>(integral);
       }
     });
   return traced;
+}
+
+bool HasVectorRayCaster()
+{
+  return HaveAVX2;
 }
 
 void LineIntegralsTo12Bit(const float* lineIntegrals, const uint8_t* mask, long long count, uint16_t* transmission)

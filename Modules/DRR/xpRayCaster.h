@@ -51,7 +51,16 @@ struct VTKXPDRR_EXPORT RayCastSettings
    * trilinear interpolation on a plane is bilinear), the fastest and the reference for accuracy.
    */
   double stepSize = 0.0;
+  /**
+   * Joseph's scheme on eight neighbouring rays at a time with AVX2, where the CPU has it (see
+   * HasVectorRayCaster). false: one ray at a time in portable code, the reference that the vector
+   * path is tested against. Both give the same samples; sums differ by float rounding only.
+   */
+  bool vectorized = true;
 };
+
+/** Whether this CPU runs the vectorised ray caster (AVX2 and FMA). */
+VTKXPDRR_EXPORT bool HasVectorRayCaster();
 
 /**
  * Line integral of mu (dimensionless) for every pixel of `grid` whose `mask` value is non-zero

@@ -252,3 +252,61 @@ TEST(RayCasterAnalytic, MaskedPixelsAreNotTracedAndValidOnesUnchanged)
   EXPECT_EQ(twelveBit[corner], 4095);
   EXPECT_EQ(twelveBit[2], 0) << "masked pixel";
 }
+
+TEST(RayCasterAnalytic, VectorPacketsMatchOneRayAtATime)
+{
+  if (!xp::HasVectorRayCaster())
+  {
+    GTEST_SKIP() << "this CPU has no AVX2: the vectorised ray caster is not used here";
+  }
+  // A textured sphere and box 90 mm apart with empty 32^3 blocks between them: a packet samples
+  // the gap (zeros), one ray at a time skips it. 61 x 37 pixels: packets straddle rows and the
+  // last one is partial.
+  const xp::AttenuationVolume volume = MakeVolume(128,
+    [](const Eigen::Vector3d& p)
+    {
+      const double texture = 1.0 + 0.5 * std::sin(0.7 * p[0]) * std::cos(0.3 * p[1] + 0.2 * p[2]);
+      const bool sphere = (p - Eigen::Vector3d(-45, 0, 0)).norm() < 12.0;
+      const bool box = (p - Eigen::Vector3d(45, 5, 0)).cwiseAbs().maxCoeff() < 10.0;
+      return sphere || box ? texture : 0.0;
+    });
+  struct View
+  {
+    const char* name;
+    Eigen::Vector3d source, panelCentre, columnStep, rowStep;
+  };
+  // Along +x, -y and +z, and 45 degrees in x-y on a wide panel: there the dominant axis changes
+  // from column to column, inside packets.
+  const Eigen::Vector3d diagonal = Eigen::Vector3d(1, -1, 0).normalized();
+  for (const View& view : { View{ "+x", { -600, 3, 2 }, { 400, 0, 0 }, { 0, 1.1, 0 }, { 0, 0.3, 1.1 } },
+         View{ "-y", { 40, 600, -3 }, { 50, -400, 0 }, { 1.1, 0, 0 }, { 0, 0, 1.1 } },
+         View{ "+z", { -40, -2, -600 }, { -50, 0, 400 }, { 1.1, 0, 0 }, { 0, 1.1, 0 } },
+         View{ "x-y diagonal", { -500, -500, 0 }, { 350, 350, 0 }, 7.0 * diagonal, { 0, 0, 1.3 } } })
+  {
+    xp::DetectorGrid grid;
+    grid.columns = 61;
+    grid.rows = 37;
+    grid.columnStep = view.columnStep;
+    grid.rowStep = view.rowStep;
+    grid.origin = view.panelCentre - 30.0 * view.columnStep - 18.0 * view.rowStep;
+    const size_t n = static_cast<size_t>(grid.columns) * grid.rows;
+    std::vector<uint8_t> mask(n);
+    for (size_t i = 0; i < n; ++i)
+      mask[i] = i % 3 != 1;
+    for (const uint8_t* pixels : { static_cast<const uint8_t*>(nullptr), static_cast<const uint8_t*>(mask.data()) })
+    {
+      std::vector<float> packets(n, -1.0f), single(n, -1.0f);
+      xp::RayCastSettings settings;
+      xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), view.source, grid, pixels, packets.data(), settings);
+      settings.vectorized = false;
+      xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), view.source, grid, pixels, single.data(), settings);
+      int nonZero = 0;
+      for (size_t i = 0; i < n; ++i)
+      {
+        EXPECT_NEAR(packets[i], single[i], 2e-5 * single[i] + 1e-7) << view.name << ", pixel " << i;
+        nonZero += single[i] > MuWater;
+      }
+      EXPECT_GT(nonZero, static_cast<int>(n / 20)) << view.name << ": the rays must cross the objects";
+    }
+  }
+}
