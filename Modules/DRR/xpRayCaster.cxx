@@ -419,9 +419,9 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packe
   const __m256 zero = _mm256_setzero_ps(), upperB = _mm256_set1_ps(common->upperB),
                upperC = _mm256_set1_ps(common->upperC);
   const __m256i strideC = _mm256_set1_epi32(common->strideC);
-  const uint16_t* voxels = common->voxels;
-  const int* words = reinterpret_cast<const int*>(voxels); // scale 2: indices count voxels
-  const int planeStride = sa * common->strideA;          // m strideA = q planeStride
+  const int* words = reinterpret_cast<const int*>(common->voxels); // scale 2: indices count voxels
+  const intptr_t origin = reinterpret_cast<intptr_t>(common->voxels);
+  const int planeStride = sa * common->strideA; // m strideA = q planeStride
   __m256 sum = _mm256_setzero_ps();
   for (int q = qBegin; q < qEnd; ++q)
   {
@@ -435,13 +435,14 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packe
     const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
     const __m256i base =
       _mm256_add_epi32(_mm256_add_epi32(_mm256_set1_epi32(q * planeStride), ib), _mm256_mullo_epi32(ic, strideC));
-    // The lines of the packet's first and last ray, PrefetchPlanes ahead (hints: never faults).
-    const int aheadFirst = _mm256_cvtsi256_si32(base) + PrefetchPlanes * planeStride;
-    const int aheadLast = _mm256_extract_epi32(base, 7) + PrefetchPlanes * planeStride;
-    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadFirst), _MM_HINT_T0);
-    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadFirst + common->strideC), _MM_HINT_T0);
-    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadLast), _MM_HINT_T0);
-    _mm_prefetch(reinterpret_cast<const char*>(voxels + aheadLast + common->strideC), _MM_HINT_T0);
+    // The lines of the packet's first and last ray PrefetchPlanes ahead. Addresses in integers:
+    // past the volume's end they are hints, which never fault.
+    const intptr_t aheadFirst = _mm256_cvtsi256_si32(base) + PrefetchPlanes * planeStride;
+    const intptr_t aheadLast = _mm256_extract_epi32(base, 7) + PrefetchPlanes * planeStride;
+    for (const intptr_t voxel : { aheadFirst, aheadFirst + common->strideC, aheadLast, aheadLast + common->strideC })
+    {
+      _mm_prefetch(reinterpret_cast<const char*>(origin + voxel * intptr_t(sizeof(uint16_t))), _MM_HINT_T0);
+    }
     // One 32-bit element holds a voxel and its b-neighbour: two gathers fetch the four voxels.
     const __m256i w0 = _mm256_mask_i32gather_epi32(none, words, base, active, 2);
     const __m256i w1 = _mm256_mask_i32gather_epi32(none, words, _mm256_add_epi32(base, strideC), active, 2);
@@ -457,8 +458,8 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packe
 const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 
 /**
- * Line integrals of a packet's rays into integrals[0..Size-1]: one pass per distinct (axis, direction)
- * among its rays, which is one except where the dominant axis changes across the detector.
+ * Line integrals of a packet's rays into integrals[0..Size-1]: one pass per distinct (axis,
+ * direction) among its rays, one pass except where the dominant axis changes across the panel.
  */
 void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, float* integrals)
 {
