@@ -1,7 +1,3 @@
-
-
-
-
 #include "xpRayCaster.h"
 
 #include "xpAttenuationVolume.h"
@@ -377,8 +373,9 @@ struct RayPacket
  * The line integrals (in volume steps) of a packet's rays on `axis` stepping in direction `sa`,
  * with AVX2 gathers; lanes of other rays get 0. One iteration samples the same voxel plane for
  * all eight rays: neighbours on the detector, they read a few cache lines that they share, where
- * one ray at a time would stream each of its lines through the cache once per ray. Samples and
- * their values are those of PlaneSample; in empty blocks between occupied ones they are 0.
+ * one ray at a time would stream each of its lines through the cache once per ray. The samples
+ * are PlaneSample's (same planes, voxels and weights, up to FMA rounding); in empty blocks
+ * between occupied ones they are 0.
  */
 __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packet, int axis, int sa, float* sums)
 {
