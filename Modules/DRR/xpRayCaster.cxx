@@ -574,45 +574,68 @@ double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
 
 } // namespace
 
+TracedPixels::TracedPixels(int panelColumns, int panelRows, const uint8_t* mask)
+  : columns(panelColumns)
+  , rows(panelRows)
+{
+  this->order.reserve(static_cast<size_t>(columns) * rows);
+  for (int tileRow = 0; tileRow < rows; tileRow += TileRows)
+  {
+    for (int tileColumn = 0; tileColumn < columns; tileColumn += TileColumns)
+    {
+      for (int row = tileRow; row < std::min(tileRow + TileRows, rows); ++row)
+      {
+        for (int column = tileColumn; column < std::min(tileColumn + TileColumns, columns); ++column)
+        {
+          const int pixel = row * columns + column;
+          if (!mask || mask[pixel])
+          {
+            this->order.push_back(pixel);
+          }
+        }
+      }
+    }
+  }
+}
+
 long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
   const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid, const uint8_t* mask, float* lineIntegrals,
+  const RayCastSettings& settings)
+{
+  if (mask)
+  {
+    const long long count = static_cast<long long>(grid.columns) * grid.rows;
+    for (long long i = 0; i < count; ++i)
+    {
+      if (!mask[i])
+      {
+        lineIntegrals[i] = 0.0f;
+      }
+    }
+  }
+  return RenderLineIntegrals(
+    volume, ctToRoom, sourceInRoom, grid, TracedPixels(grid.columns, grid.rows, mask), lineIntegrals, settings);
+}
+
+long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
+  const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid, const TracedPixels& pixels, float* lineIntegrals,
   const RayCastSettings& settings)
 {
   if (volume.Dimensions().minCoeff() < 1)
   {
     throw Error("ray caster: no volume");
   }
+  if (pixels.columns != grid.columns || pixels.rows != grid.rows)
+  {
+    throw Error("ray caster: the traced pixels are of a " + std::to_string(pixels.columns) + " x " +
+      std::to_string(pixels.rows) + " panel, the grid is " + std::to_string(grid.columns) + " x " +
+      std::to_string(grid.rows));
+  }
   const Eigen::Affine3d roomToIndex = (ctToRoom * volume.PaddedIndexToCT()).inverse();
   const Eigen::Vector3d source = roomToIndex * sourceInRoom;
-  const long long count = static_cast<long long>(grid.columns) * grid.rows;
-
-  // The pixels to trace (all, or the valid ones) in tiles of 16 x 8: neighbouring rays read the
-  // same voxels, so a tile's rays share cache lines; the list also spreads masked work evenly.
-  constexpr int TileColumns = 16, TileRows = 8;
-  std::vector<int> order;
-  order.reserve(static_cast<size_t>(count));
-  for (int tileRow = 0; tileRow < grid.rows; tileRow += TileRows)
-  {
-    for (int tileColumn = 0; tileColumn < grid.columns; tileColumn += TileColumns)
-    {
-      for (int row = tileRow; row < std::min(tileRow + TileRows, grid.rows); ++row)
-      {
-        for (int column = tileColumn; column < std::min(tileColumn + TileColumns, grid.columns); ++column)
-        {
-          const int pixel = row * grid.columns + column;
-          if (!mask || mask[pixel])
-          {
-            order.push_back(pixel);
-          }
-          else
-          {
-            lineIntegrals[pixel] = 0.0f;
-          }
-        }
-      }
-    }
-  }
+  const std::vector<int>& order = pixels.order;
   const long long traced = static_cast<long long>(order.size());
+  constexpr int TileColumns = TracedPixels::TileColumns, TileRows = TracedPixels::TileRows;
 
   const auto rayOf = [&](int pixel)
   {

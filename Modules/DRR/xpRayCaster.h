@@ -15,6 +15,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <vector>
 
 namespace xp
 {
@@ -63,6 +64,25 @@ struct VTKXPDRR_EXPORT RayCastSettings
 VTKXPDRR_EXPORT bool HasVectorRayCaster();
 
 /**
+ * The pixels a DRR traces, in the order the ray caster visits them: tiles of 16 x 8, so that
+ * neighbouring rays, which read the same voxels, run together (packets of eight take
+ * consecutive entries); the list also spreads masked work evenly over threads. It depends only
+ * on the panel size and the mask: a registration builds it once per mask and renders every pose
+ * with it.
+ */
+struct VTKXPDRR_EXPORT TracedPixels
+{
+  static constexpr int TileColumns = 16, TileRows = 8;
+
+  /** All pixels of a columns x rows panel, or those whose `mask` value is non-zero. */
+  TracedPixels(int columns, int rows, const uint8_t* mask);
+
+  int columns = 0;
+  int rows = 0;
+  std::vector<int> order; ///< pixel indices (row * columns + column)
+};
+
+/**
  * Line integral of mu (dimensionless) for every pixel of `grid` whose `mask` value is non-zero
  * (all pixels when mask is null); other pixels get 0. `ctToRoom` places the CT in the room
  * (planned set-up composed with the patient's misalignment). Uses all vtkSMPTools threads.
@@ -70,6 +90,11 @@ VTKXPDRR_EXPORT bool HasVectorRayCaster();
  */
 VTKXPDRR_EXPORT long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
   const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid, const uint8_t* mask, float* lineIntegrals,
+  const RayCastSettings& settings = {});
+
+/** The same for the pixels of `pixels` (built for this grid's size); other pixels are left as they are. */
+VTKXPDRR_EXPORT long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
+  const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid, const TracedPixels& pixels, float* lineIntegrals,
   const RayCastSettings& settings = {});
 
 /** 12-bit transmission round(4095 * exp(-integral)); 0 where the mask is zero. */

@@ -24,6 +24,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     {
       throw InputError("view " + item.view.name, "X-ray or mask size does not match the panel");
     }
+    this->Traced.emplace_back(item.view.Columns(), item.view.Rows(), item.mask.empty() ? nullptr : item.mask.data());
     this->Integrals.emplace_back(pixels);
     this->DRRs.emplace_back(pixels);
   }
@@ -39,8 +40,8 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     const RegistrationView& item = this->Items[v];
     const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
     const long long count = static_cast<long long>(item.xray.size());
-    RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view), mask,
-      this->Integrals[v].data());
+    RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
+      this->Traced[v], this->Integrals[v].data());
     LineIntegralsTo12Bit(this->Integrals[v].data(), mask, count, this->DRRs[v].data());
     this->Histogram.Compute(item.xray.data(), this->DRRs[v].data(), count, mask, mask);
     this->LastMI[v] = this->Histogram.MutualInformation();

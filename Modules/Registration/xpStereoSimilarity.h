@@ -54,7 +54,8 @@ private:
   Eigen::Vector3d Isocenter;
   std::vector<RegistrationView> Items;
   JointHistogram Histogram;
-  std::vector<std::vector<float>> Integrals;
+  std::vector<TracedPixels> Traced; ///< per view, built once: the mask is fixed
+  std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
   std::vector<std::vector<uint16_t>> DRRs;
   std::vector<double> LastMI;
   long long DRRCount = 0;

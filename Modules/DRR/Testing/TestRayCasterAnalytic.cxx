@@ -1,6 +1,7 @@
 // The ray caster against analytic line integrals (RTK's approach): a box and a sphere of
 // constant mu, chord lengths known in closed form.
 #include "xpAttenuationVolume.h"
+#include "xpError.h"
 #include "xpRayCaster.h"
 
 #include <gtest/gtest.h>
@@ -245,6 +246,17 @@ TEST(RayCasterAnalytic, MaskedPixelsAreNotTracedAndValidOnesUnchanged)
   {
     EXPECT_EQ(masked[i], mask[i] ? full[i] : 0.0f) << i;
   }
+  // The same pixels through a reusable list: traced ones equal, the others left as they were.
+  std::vector<float> reused(n, -1.0f);
+  const xp::TracedPixels pixels(grid.columns, grid.rows, mask.data());
+  EXPECT_EQ(xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, grid, pixels, reused.data()), some);
+  for (size_t i = 0; i < n; ++i)
+  {
+    EXPECT_EQ(reused[i], mask[i] ? full[i] : -1.0f) << i;
+  }
+  const xp::TracedPixels otherPanel(grid.columns + 1, grid.rows, nullptr);
+  EXPECT_THROW(
+    xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, grid, otherPanel, reused.data()), xp::Error);
   std::vector<uint16_t> twelveBit(n);
   xp::LineIntegralsTo12Bit(masked.data(), mask.data(), static_cast<long long>(n), twelveBit.data());
   const size_t corner = 64 * 1; // row 1 is valid, column 0: a ray that misses -> transmission 1
