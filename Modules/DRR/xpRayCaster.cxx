@@ -301,6 +301,9 @@ struct PlaneRay
   double t0 = 0.0; ///< t of sample j = 0, the first plane at or after the entry
   double dt = 0.0; ///< mm between planes along the ray
 
+  /** One past the ray's last sample (the samples of [tEnter, tExit)). */
+  int EndSample() const { return static_cast<int>(std::ceil((this->tExit - this->t0) / this->dt)); }
+
   /** The samples j0 <= j < j1 that lie in [runStart, runEnd). */
   void SamplesIn(double runStart, double runEnd, int& j0, int& j1) const
   {
@@ -474,11 +477,10 @@ void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, float* i
     double tFirst, tLast;
     if (OccupiedSpan(volume, rays[r], planeRay.tEnter, planeRay.tExit, tFirst, tLast))
     {
-      int first, last, none, end;
-      planeRay.SamplesIn(planeRay.tEnter, planeRay.tExit, none, end); // end: past the ray's last sample
+      int first, last;
       planeRay.SamplesIn(tFirst, tLast, first, last);
       packet.first[r] = std::max(0, first - 1);
-      packet.last[r] = std::min(end, last + 1);
+      packet.last[r] = std::min(planeRay.EndSample(), last + 1);
     }
   }
   std::fill(integrals, integrals + RayPacket::Size, 0.0f);
@@ -574,11 +576,11 @@ double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
 
 } // namespace
 
-TracedPixels::TracedPixels(int panelColumns, int panelRows, const uint8_t* mask)
-  : columns(panelColumns)
-  , rows(panelRows)
+TracedPixels::TracedPixels(int columns, int rows, const uint8_t* mask)
+  : PanelColumns(columns)
+  , PanelRows(rows)
 {
-  this->order.reserve(static_cast<size_t>(columns) * rows);
+  this->Pixels.reserve(static_cast<size_t>(columns) * rows);
   for (int tileRow = 0; tileRow < rows; tileRow += TileRows)
   {
     for (int tileColumn = 0; tileColumn < columns; tileColumn += TileColumns)
@@ -590,7 +592,7 @@ TracedPixels::TracedPixels(int panelColumns, int panelRows, const uint8_t* mask)
           const int pixel = row * columns + column;
           if (!mask || mask[pixel])
           {
-            this->order.push_back(pixel);
+            this->Pixels.push_back(pixel);
           }
         }
       }
@@ -625,15 +627,15 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   {
     throw Error("ray caster: no volume");
   }
-  if (pixels.columns != grid.columns || pixels.rows != grid.rows)
+  if (pixels.Columns() != grid.columns || pixels.Rows() != grid.rows)
   {
-    throw Error("ray caster: the traced pixels are of a " + std::to_string(pixels.columns) + " x " +
-      std::to_string(pixels.rows) + " panel, the grid is " + std::to_string(grid.columns) + " x " +
+    throw Error("ray caster: the traced pixels are of a " + std::to_string(pixels.Columns()) + " x " +
+      std::to_string(pixels.Rows()) + " panel, the grid is " + std::to_string(grid.columns) + " x " +
       std::to_string(grid.rows));
   }
   const Eigen::Affine3d roomToIndex = (ctToRoom * volume.PaddedIndexToCT()).inverse();
   const Eigen::Vector3d source = roomToIndex * sourceInRoom;
-  const std::vector<int>& order = pixels.order;
+  const std::vector<int>& order = pixels.Order();
   const long long traced = static_cast<long long>(order.size());
   constexpr int TileColumns = TracedPixels::TileColumns, TileRows = TracedPixels::TileRows;
 

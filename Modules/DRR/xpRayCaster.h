@@ -70,16 +70,23 @@ VTKXPDRR_EXPORT bool HasVectorRayCaster();
  * on the panel size and the mask: a registration builds it once per mask and renders every pose
  * with it.
  */
-struct VTKXPDRR_EXPORT TracedPixels
+class VTKXPDRR_EXPORT TracedPixels
 {
+public:
   static constexpr int TileColumns = 16, TileRows = 8;
 
   /** All pixels of a columns x rows panel, or those whose `mask` value is non-zero. */
   TracedPixels(int columns, int rows, const uint8_t* mask);
 
-  int columns = 0;
-  int rows = 0;
-  std::vector<int> order; ///< pixel indices (row * columns + column)
+  int Columns() const { return this->PanelColumns; }
+  int Rows() const { return this->PanelRows; }
+  /** Pixel indices (row * Columns() + column), each below Columns() * Rows(). */
+  const std::vector<int>& Order() const { return this->Pixels; }
+
+private:
+  int PanelColumns = 0;
+  int PanelRows = 0;
+  std::vector<int> Pixels;
 };
 
 /**
