@@ -1,10 +1,9 @@
 #include "xpDICOMSeries.h"
 
+#include "xpDICOMStructure.h"
 #include "xpError.h"
 
 #include <gdcmDirectory.h>
-#include <gdcmExplicitDataElement.h>
-#include <gdcmImplicitDataElement.h>
 #include <gdcmImage.h>
 #include <gdcmImageReader.h>
 #include <gdcmReader.h>
@@ -41,6 +40,10 @@ const gdcm::Tag SamplesTag(0x0028, 0x0002);
 const gdcm::Tag BitsAllocatedTag(0x0028, 0x0100);
 const gdcm::Tag PixelDataTag(0x7fe0, 0x0010);
 
+// Bounds before allocation: 8192^2 pixels a slice, 2^30 voxels (4 GiB of float HU) a volume.
+constexpr uint64_t MaxPixelsPerSlice = uint64_t(1) << 26;
+constexpr uint64_t MaxVoxels = uint64_t(1) << 30;
+
 struct SliceHeader
 {
   std::string file;
@@ -68,43 +71,32 @@ std::vector<double> Numbers(const std::string& text)
   std::string item;
   while (std::getline(stream, item, '\\'))
   {
-    try
-    {
-      values.push_back(std::stod(item));
-    }
-    catch (const std::exception&)
+    // Not std::stod: it takes "nan" and "inf", which no DICOM decimal string may hold.
+    char* end = nullptr;
+    const double value = std::strtod(item.c_str(), &end);
+    if (end == item.c_str() || !std::isfinite(value) || Trim(end) != "")
     {
       return {};
     }
+    values.push_back(value);
   }
   return values;
-}
-
-bool LooksLikeDICOM(const std::string& file)
-{
-  std::ifstream in(file, std::ios::binary);
-  char magic[132] = {};
-  in.read(magic, sizeof(magic));
-  const auto has = [&](const char* ext)
-  {
-    const size_t n = std::strlen(ext);
-    return file.size() >= n && strcasecmp(file.c_str() + file.size() - n, ext) == 0;
-  };
-  return (in.gcount() == 132 && std::memcmp(magic + 128, "DICM", 4) == 0) || has(".dcm") || has(".ima");
 }
 
 /** Reads the header of one file; returns false for files that are not DICOM at all. */
 bool ReadHeader(const std::string& file, SliceHeader& h)
 {
+  if (!LooksLikeDICOM(file))
+  {
+    return false;
+  }
+  // GDCM aborts on some damaged headers: it sees only files whose structure is intact.
+  CheckPixelDataSize(CheckDICOMStructure(file), file, MaxPixelsPerSlice);
   gdcm::Reader reader;
   reader.SetFileName(file.c_str());
   if (!reader.ReadUpToTag(PixelDataTag))
   {
-    if (LooksLikeDICOM(file))
-    {
-      throw InputError(file, "unreadable DICOM file (corrupt or truncated header)");
-    }
-    return false;
+    throw InputError(file, "unreadable DICOM file (corrupt or truncated header)");
   }
   gdcm::StringFilter sf;
   sf.SetFile(reader.GetFile());
@@ -123,15 +115,19 @@ bool ReadHeader(const std::string& file, SliceHeader& h)
   }
   if (ipp.size() != 3)
   {
-    throw InputError(file, "Image Position (Patient) (0020,0032) missing or malformed");
+    throw InputError(file, "Image Position (Patient) (0020,0032) missing, malformed or not finite");
   }
   if (iop.size() != 6)
   {
-    throw InputError(file, "Image Orientation (Patient) (0020,0037) missing or malformed");
+    throw InputError(file, "Image Orientation (Patient) (0020,0037) missing, malformed or not finite");
   }
   if (ps.size() != 2 || !(ps[0] > 0) || !(ps[1] > 0))
   {
-    throw InputError(file, "Pixel Spacing (0028,0030) missing or not positive");
+    throw InputError(file, "Pixel Spacing (0028,0030) missing, not positive or not finite");
+  }
+  if (Eigen::Vector3d(iop[0], iop[1], iop[2]).norm() < 0.5 || Eigen::Vector3d(iop[3], iop[4], iop[5]).norm() < 0.5)
+  {
+    throw InputError(file, "Image Orientation (Patient) (0020,0037) holds a zero direction");
   }
   h.position = { ipp[0], ipp[1], ipp[2] };
   h.rowDirection = Eigen::Vector3d(iop[0], iop[1], iop[2]).normalized();
@@ -220,23 +216,6 @@ double SliceSpacing(const std::vector<SliceHeader>& slices, const Eigen::Vector3
   return spacing;
 }
 
-size_t FileSize(const std::string& file)
-{
-  std::ifstream in(file, std::ios::binary | std::ios::ate);
-  return static_cast<size_t>(std::max<std::streamoff>(0, in.tellg()));
-}
-
-/** Bytes the file needs for what its elements declare. GDCM pads a truncated native pixel
- *  data element silently, so comparing this with the file size is how truncation shows. */
-size_t EncodedLength(const gdcm::File& file)
-{
-  const bool isExplicit = file.GetHeader().GetDataSetTransferSyntax().IsExplicit();
-  size_t length = isExplicit ? static_cast<size_t>(file.GetDataSet().GetLength<gdcm::ExplicitDataElement>())
-                             : static_cast<size_t>(file.GetDataSet().GetLength<gdcm::ImplicitDataElement>());
-  length += file.GetHeader().GetLength<gdcm::ExplicitDataElement>();
-  return length + (file.GetHeader().GetPreamble().IsEmpty() ? 0 : 132);
-}
-
 template <typename T>
 void Rescale(const char* raw, size_t count, double slope, double intercept, float* out)
 {
@@ -297,6 +276,11 @@ CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& serie
   {
     throw InputError(slices.front().file, "a CT volume needs at least two slices");
   }
+  if (static_cast<uint64_t>(slices.front().rows) * slices.front().columns * slices.size() > MaxVoxels)
+  {
+    throw InputError(directory, std::to_string(slices.size()) + " slices of " + std::to_string(slices.front().columns) + "x" +
+        std::to_string(slices.front().rows) + " exceed the " + std::to_string(MaxVoxels) + "-voxel limit");
+  }
 
   const SliceHeader& first = slices.front();
   const Eigen::Vector3d normal = first.rowDirection.cross(first.columnDirection).normalized();
@@ -307,7 +291,7 @@ CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& serie
   for (SliceHeader& h : slices)
   {
     CheckConsistent(first, h);
-    if (std::abs(h.tilt) > 1e-3)
+    if (!(std::abs(h.tilt) <= 1e-3))
     {
       throw InputError(h.file, "Gantry/Detector Tilt (0018,1120) = " + std::to_string(h.tilt) + " degrees is not supported");
     }
@@ -347,10 +331,6 @@ void ReadCTSeriesVoxels(const CTSeriesInfo& info, std::vector<float>& hounsfield
     if (!reader.Read())
     {
       throw InputError(file, "cannot read the pixel data (corrupt, truncated or unsupported encoding)");
-    }
-    if (EncodedLength(reader.GetFile()) > FileSize(file))
-    {
-      throw InputError(file, "truncated: the file ends before its pixel data does");
     }
     const gdcm::Image& image = reader.GetImage();
     const unsigned int* dims = image.GetDimensions();

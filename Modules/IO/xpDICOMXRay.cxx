@@ -1,5 +1,6 @@
 #include "xpDICOMXRay.h"
 
+#include "xpDICOMStructure.h"
 #include "xpError.h"
 #include "xpImageIO.h"
 
@@ -19,6 +20,8 @@ namespace xp
 
 namespace
 {
+
+constexpr uint64_t MaxXRayPixels = uint64_t(1) << 26; // 8192 x 8192
 
 bool IsPNG(const std::string& path)
 {
@@ -41,6 +44,13 @@ std::string Trim(std::string s)
 vtkSmartPointer<vtkImageData> ReadXRayDICOM(const std::string& path)
 {
   gdcm::Trace::WarningOff();
+  // GDCM aborts on some damaged headers and pads short pixel data: check the structure first.
+  const DICOMLayout layout = CheckDICOMStructure(path);
+  CheckPixelDataSize(layout, path, MaxXRayPixels);
+  if (layout.frames != 1)
+  {
+    throw InputError(path, "Number of Frames (0028,0008) = " + std::to_string(layout.frames) + ": expected one X-ray image");
+  }
   gdcm::ImageReader reader;
   reader.SetFileName(path.c_str());
   if (!reader.Read())
@@ -61,7 +71,19 @@ vtkSmartPointer<vtkImageData> ReadXRayDICOM(const std::string& path)
   {
     throw InputError(path, "expected a single-frame grey-scale X-ray");
   }
+  if (dims[0] != layout.columns || dims[1] != layout.rows)
+  {
+    throw InputError(path, "the decoded image size differs from Rows (0028,0010) / Columns (0028,0011)");
+  }
+  if (format.GetBitsStored() < 1 || format.GetBitsStored() > format.GetBitsAllocated())
+  {
+    throw InputError(path, "Bits Stored (0028,0101) = " + std::to_string(format.GetBitsStored()) + " is not within 1..Bits Allocated");
+  }
   std::vector<char> raw(image.GetBufferLength());
+  if (raw.size() < static_cast<size_t>(dims[0]) * dims[1] * format.GetPixelSize())
+  {
+    throw InputError(path, "pixel data is shorter than Rows x Columns");
+  }
   if (!image.GetBuffer(raw.data()))
   {
     throw InputError(path, "cannot decode the pixel data (corrupt or truncated)");

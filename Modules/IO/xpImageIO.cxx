@@ -1,16 +1,17 @@
 #include "xpImageIO.h"
 
 #include "xpError.h"
+#include "xpPNG.h"
 #include "xpXRayView.h"
 
 #include <Eigen/Geometry>
 #include <vtkImageData.h>
 #include <vtkNew.h>
-#include <vtkPNGReader.h>
 #include <vtkPNGWriter.h>
 #include <vtkPointData.h>
 #include <vtkDataArray.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -40,37 +41,30 @@ void WritePNG(vtkImageData* image, const std::string& path)
 
 vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows)
 {
-  vtkNew<vtkPNGReader> reader;
-  if (!reader->CanReadFile(path.c_str()))
+  const DecodedPNG png = DecodePNG(path);
+  if (png.columns != columns || png.rows != rows)
   {
-    throw InputError(path, "not a readable PNG mask");
-  }
-  reader->SetFileName(path.c_str());
-  reader->Update();
-  vtkImageData* image = reader->GetOutput();
-  int dims[3];
-  image->GetDimensions(dims);
-  if (dims[0] != columns || dims[1] != rows)
-  {
-    throw InputError(path, "mask is " + std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + " pixels, the image is " +
+    throw InputError(path, "mask is " + std::to_string(png.columns) + "x" + std::to_string(png.rows) + " pixels, the image is " +
         std::to_string(columns) + "x" + std::to_string(rows));
   }
-  vtkDataArray* values = image->GetPointData()->GetScalars();
   auto mask = vtkSmartPointer<vtkImageData>::New();
   mask->SetDimensions(columns, rows, 1);
   mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
   uint8_t* out = static_cast<uint8_t*>(mask->GetScalarPointer());
-  const int components = values->GetNumberOfComponents();
+  // Any non-zero colour channel marks a valid pixel; alpha (grey+alpha: channel 1, RGBA: 3) does not.
+  const int colours = png.channels >= 3 ? 3 : 1;
   long long valid = 0;
-  for (vtkIdType i = 0; i < static_cast<vtkIdType>(columns) * rows; ++i)
+  for (int row = 0; row < rows; ++row) // PNG row 0 (detector row 0) -> VTK row rows-1
   {
-    bool any = false;
-    for (int c = 0; c < std::min(components, 3); ++c)
+    for (int column = 0; column < columns; ++column)
     {
-      any = any || values->GetComponent(i, c) != 0.0;
+      const uint16_t* pixel = png.samples.data() + (static_cast<size_t>(row) * columns + column) * png.channels;
+      bool any = false;
+      for (int c = 0; c < colours; ++c)
+        any = any || pixel[c] != 0;
+      out[static_cast<size_t>(rows - 1 - row) * columns + column] = any ? 1 : 0;
+      valid += any;
     }
-    out[i] = any ? 1 : 0;
-    valid += out[i];
   }
   if (valid == 0)
   {
@@ -81,28 +75,28 @@ vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, 
 
 vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path)
 {
-  vtkNew<vtkPNGReader> reader;
-  if (!reader->CanReadFile(path.c_str()))
+  const DecodedPNG png = DecodePNG(path);
+  if (!png.IsGrey16())
   {
-    throw InputError(path, "not a readable PNG image");
+    throw InputError(path, "expected a 16-bit grey PNG holding 12-bit values (0..4095), found " +
+        std::to_string(png.bitDepth) + "-bit with " + std::to_string(png.channels) + " channel(s)");
   }
-  reader->SetFileName(path.c_str());
-  reader->Update();
-  vtkImageData* image = reader->GetOutput();
-  if (image->GetScalarType() != VTK_UNSIGNED_SHORT || image->GetNumberOfScalarComponents() != 1)
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->SetDimensions(png.columns, png.rows, 1);
+  image->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+  uint16_t* out = static_cast<uint16_t*>(image->GetScalarPointer());
+  uint16_t brightest = 0;
+  for (int row = 0; row < png.rows; ++row) // PNG row 0 (detector row 0) -> VTK row rows-1
   {
-    throw InputError(path, "expected a 16-bit grey PNG holding 12-bit values (0..4095)");
+    const uint16_t* in = png.samples.data() + static_cast<size_t>(row) * png.columns;
+    std::copy(in, in + png.columns, out + static_cast<size_t>(png.rows - 1 - row) * png.columns);
+    brightest = std::max(brightest, *std::max_element(in, in + png.columns));
   }
-  double range[2];
-  image->GetPointData()->GetScalars()->GetRange(range);
-  if (range[1] > 4095.0)
+  if (brightest > 4095)
   {
-    throw InputError(path, "pixel values up to " + std::to_string(static_cast<int>(range[1])) +
-        ": not a 12-bit image (0..4095)");
+    throw InputError(path, "pixel values up to " + std::to_string(brightest) + ": not a 12-bit image (0..4095)");
   }
-  auto copy = vtkSmartPointer<vtkImageData>::New();
-  copy->DeepCopy(image);
-  return copy;
+  return image;
 }
 
 void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path)

@@ -1,0 +1,70 @@
+/**
+ * @file xpVolumeFormats.h
+ * @brief xpose's own MetaImage and NIfTI-1 readers (module-private).
+ *
+ * VTK's readers ignore their decoders' errors: a file cut short or a header whose sizes exceed
+ * the data gave a volume padded with zeros, which registered as `ok`. These readers check every
+ * header field and the data length before anything is allocated, and refuse rather than repair.
+ */
+#ifndef xpVolumeFormats_h
+#define xpVolumeFormats_h
+
+#include "xpVolumeIO.h"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace xp
+{
+
+enum class VoxelType
+{
+  Int8,
+  UInt8,
+  Int16,
+  UInt16,
+  Int32,
+  UInt32,
+  Float32,
+  Float64
+};
+
+/** A volume's header, as read from a file, before its voxels are. */
+struct VolumeHeader
+{
+  std::array<int64_t, 3> dimensions{ 0, 0, 0 };
+  Eigen::Vector3d spacing = Eigen::Vector3d::Ones();
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< LPS mm of voxel (0, 0, 0)
+  Eigen::Matrix3d direction = Eigen::Matrix3d::Identity(); ///< columns: LPS axis directions
+  VoxelType type = VoxelType::Int16;
+  bool bigEndian = false;
+  double slope = 1.0, intercept = 0.0;
+
+  int64_t VoxelCount() const { return this->dimensions[0] * this->dimensions[1] * this->dimensions[2]; }
+  /** Bytes of voxel data the header declares. */
+  uint64_t DataBytes() const;
+};
+
+size_t VoxelBytes(VoxelType type);
+
+/**
+ * Checks what a header declares: at least 1 x 1 x 2 voxels and no more than the voxel limit,
+ * finite positive spacing, finite origin, finite unit direction columns that span 3D, finite
+ * slope and intercept. Throws xp::InputError naming `path` and the field (`fields` maps the
+ * checks to the format's own field names: dimensions, spacing, origin, direction).
+ */
+void CheckVolumeHeader(const VolumeHeader& header, const std::string& path, const std::array<std::string, 4>& fields);
+
+/** Converts exactly header.DataBytes() bytes to a float HU image; refuses non-finite voxels. */
+CTVolume MakeCTVolume(const VolumeHeader& header, const std::vector<char>& data, const std::string& path);
+
+CTVolume ReadMetaImage(const std::string& path);
+CTVolume ReadNIfTI(const std::string& path);
+
+} // namespace xp
+
+#endif
