@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <dirent.h>
 #include <iostream>
+#include <new>
 
 namespace xp
 {
@@ -26,6 +27,12 @@ int GuardedRun(const std::string& command, const std::function<int()>& body)
   {
     std::cerr << "xpose " << command << ": error: " << e.what() << std::endl;
     return ExitBadInput;
+  }
+  catch (const std::bad_alloc&)
+  {
+    // Readers bound what they allocate; this is the last resort for what no check foresaw.
+    std::cerr << "xpose " << command << ": failed: not enough memory for these inputs" << std::endl;
+    return ExitFailure;
   }
   catch (const std::exception& e)
   {
@@ -65,6 +72,16 @@ std::string JsonPose(const Pose& p)
     "{\"translation_mm\": [%.6f, %.6f, %.6f], \"rotation_deg\": {\"pitch\": %.6f, \"roll\": %.6f, \"yaw\": %.6f}}",
     p.translation[0], p.translation[1], p.translation[2], p.pitch, p.roll, p.yaw);
   return text;
+}
+
+void CheckLimit(double value, double low, double high, const std::string& option)
+{
+  if (!(value >= low && value <= high))
+  {
+    char range[96];
+    std::snprintf(range, sizeof(range), "must be a number from %g to %g, got %g", low, high, value);
+    throw InputError(option, range);
+  }
 }
 
 void UseThreads(int threads)

@@ -155,6 +155,13 @@ std::string JsonPose(const Pose& pose);
 /** "x,y,z" -> a point in mm; throws xp::InputError naming `field`. */
 Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field);
 
+/** Throws xp::InputError naming `option` unless low <= value <= high (NaN fails). */
+void CheckLimit(double value, double low, double high, const std::string& option);
+
+/** Routes VTK's warnings and errors to stderr as single plain lines (no colour, no pipeline
+ *  dump); the "returned failure" messages that follow an error xpose reports itself are dropped. */
+void RouteVTKMessages();
+
 /** Sets the number of threads used by every parallel kernel (0 = all cores). */
 void UseThreads(int threads);
 

@@ -86,13 +86,22 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
   {
     throw InputError("--mu-water", "must be between 0 and 1 per mm");
   }
-  if (stepSize < 0.0)
+  if (stepSize != 0.0)
   {
-    throw InputError("--step", "must be positive (0 = smallest voxel spacing)");
+    CheckLimit(stepSize, 0.01, 100.0, "--step");
   }
   DRRSetup setup;
   setup.geometry = ReadStereoGeometry(geometryPath); // geometry first: cheap to check
   setup.ct = ReadCTVolume(ctPath, series);
+  // Steps far below a voxel add nothing but time (1e-9 mm ran without end): bound the work.
+  double spacing[3];
+  setup.ct.image->GetSpacing(spacing);
+  const double voxel = std::min({ spacing[0], spacing[1], spacing[2] });
+  if (stepSize != 0.0 && stepSize < voxel / 16.0)
+  {
+    throw InputError("--step", std::to_string(stepSize) + " mm is finer than 1/16 of the smallest voxel (" +
+        std::to_string(voxel) + " mm): it would multiply the time and change nothing");
+  }
   setup.filter = vtkSmartPointer<vtkXPDRRFilter>::New();
   setup.filter->SetInputData(setup.ct.image);
   setup.filter->SetPatientPosition(ParsePatientPosition(setup.ct.patientPosition, ctPath));

@@ -5,6 +5,7 @@
 
 int main(int argc, char** argv)
 {
+  xp::RouteVTKMessages();
   CLI::App app{ "xpose: 6-DOF patient pose from two stereoscopic X-ray images and the planning CT" };
   app.require_subcommand(1);
 
@@ -117,7 +118,15 @@ int main(int argc, char** argv)
   evaluateCommand->add_option("--out-dir", evaluate.outputDirectory,
     "Output folder; an interrupted evaluation resumes in it with the same options")->required();
 
-  CLI11_PARSE(app, argc, argv);
+  try
+  {
+    app.parse(argc, argv);
+  }
+  catch (const CLI::ParseError& e)
+  {
+    // --help and --version end here too (code 0); every real parse error is bad input.
+    return app.exit(e) == 0 ? xp::ExitOk : xp::ExitBadInput;
+  }
   if (reportCommand->parsed())
     return xp::GuardedRun("report", [&] { return xp::RunReport(report); });
   if (evaluateCommand->parsed())

@@ -16,6 +16,9 @@ namespace xp
 
 int RunMask(const MaskOptions& options)
 {
+  // The filter clamps out-of-range values; a command refuses them instead.
+  CheckLimit(options.window, 3, 63, "--window");
+  CheckLimit(options.binWidth, 1, 4095, "--bin-width");
   vtkSmartPointer<vtkImageData> xray = ReadXRayImage(options.xray);
   int dims[3];
   xray->GetDimensions(dims);

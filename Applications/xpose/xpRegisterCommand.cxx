@@ -98,6 +98,14 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
       item.mask = RowsTopFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1]));
       item.mask = factor > 1 ? ShrinkMask(item.mask, dims[0], factor) : item.mask;
     }
+    for (size_t earlier = 0; earlier < inputs.views.size(); ++earlier)
+    {
+      if (inputs.views[earlier].xray == item.xray)
+      {
+        throw InputError("--xray", options.xrays[v] + " (imager " + panels[v].name + ") holds the same image as " +
+            options.xrays[earlier] + " (imager " + panels[earlier].name + "): each imager needs its own X-ray");
+      }
+    }
     inputs.views.push_back(std::move(item));
   }
   vtkImageData* ct = setup.ct.image;
@@ -106,13 +114,27 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
   return inputs;
 }
 
+void CheckRegisterOptions(const RegisterOptions& options)
+{
+  CheckLimit(options.bins, 8, 256, "--bins");
+  CheckLimit(options.maxEvaluations, 10, 100000, "--max-evaluations");
+  CheckLimit(options.maxTranslation, 0.1, 500.0, "--max-translation");
+  CheckLimit(options.maxRotation, 0.1, 180.0, "--max-rotation");
+  CheckLimit(options.minExplained, 0.0, 1.0, "minimum explained information");
+  CheckLimit(options.maxViewResidual, 0.01, 100.0, "maximum view residual");
+}
+
 int RunRegister(const RegisterOptions& options)
 {
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
-  if (options.bins < 8 || options.bins > 256)
+  CheckRegisterOptions(options);
+  // Output folders are checked before the work, not after it: a registration whose result
+  // cannot be written must not run for seconds and then fail.
+  StagedOutputDirectory::CheckWritable(options.outputDirectory);
+  if (!options.reportDirectory.empty())
   {
-    throw InputError("--bins", "must be between 8 and 256");
+    StagedOutputDirectory::CheckWritable(options.reportDirectory);
   }
   // --- read and check every input before any work ---
   const RegistrationInputs inputs = LoadRegistrationInputs(options);
@@ -177,6 +199,9 @@ int RunRegister(const RegisterOptions& options)
        << ", \"geometry\": " << absolute(options.geometry) << ", \"xrays\": [";
   for (size_t v = 0; v < options.xrays.size(); ++v)
     json << (v ? ", " : "") << absolute(options.xrays[v]);
+  json << "], \"xray_md5\": [";
+  for (size_t v = 0; v < options.xrays.size(); ++v)
+    json << (v ? ", " : "") << JsonString(FileMD5(options.xrays[v]));
   json << "], \"rois\": [";
   for (size_t v = 0; v < options.rois.size(); ++v)
     json << (v ? ", " : "") << absolute(options.rois[v]);
@@ -191,7 +216,6 @@ int RunRegister(const RegisterOptions& options)
   for (size_t n = 0; n < result.objectiveTrace.size(); ++n)
     json << (n ? ", " : "") << result.objectiveTrace[n];
   json << "]}\n}\n";
-  std::ofstream(output.Path("result.json")) << json.str();
   for (size_t v = 0; v < views.size(); ++v)
   {
     const int columns = views[v].view.Columns(), rows = views[v].view.Rows();
@@ -207,6 +231,15 @@ int RunRegister(const RegisterOptions& options)
       WritePNG(ImageFromRowsTopFirst(map, columns, rows), output.Path("entropy_" + views[v].view.name + ".png"));
     }
   }
+  // The record last: a folder with a result.json holds that run's complete output.
+  std::ofstream record(output.Path("result.json"));
+  record << json.str();
+  record.close();
+  if (!record)
+  {
+    throw Error(options.outputDirectory + "/result.json", "cannot be written");
+  }
+  output.ReplaceEarlier({ "drr_*.png", "mask_*.png", "entropy_*.png" });
   output.Commit();
 
   std::printf("\n%s\nmisalignment: %s\ncorrection:   %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); apply the "

@@ -65,9 +65,32 @@ public:
       throw InputError(this->Path, "field '" + field + "' must be a string");
     return value.asString();
   }
+  bool Bool(const std::string& field) const
+  {
+    const Json::Value& value = this->At(field);
+    if (!value.isBool())
+      throw InputError(this->Path, "field '" + field + "' must be true or false");
+    return value.asBool();
+  }
+  std::vector<double> Numbers(const std::string& field) const
+  {
+    const Json::Value& value = this->At(field);
+    if (!value.isArray())
+      throw InputError(this->Path, "field '" + field + "' must list numbers");
+    std::vector<double> numbers;
+    for (const Json::Value& item : value)
+    {
+      if (!item.isNumeric())
+        throw InputError(this->Path, "field '" + field + "' must list numbers");
+      numbers.push_back(item.asDouble());
+    }
+    return numbers;
+  }
   std::vector<std::string> Texts(const std::string& field) const
   {
     const Json::Value& value = this->At(field);
+    if (!value.isArray())
+      throw InputError(this->Path, "field '" + field + "' must list strings");
     std::vector<std::string> texts;
     for (const Json::Value& item : value)
     {
@@ -79,12 +102,11 @@ public:
   }
   Pose PoseAt(const std::string& field) const
   {
-    const Json::Value& t = this->At(field + ".translation_mm");
-    if (!t.isArray() || t.size() != 3)
+    const std::vector<double> t = this->Numbers(field + ".translation_mm");
+    if (t.size() != 3)
       throw InputError(this->Path, "field '" + field + ".translation_mm' must hold 3 numbers");
     Pose pose;
-    for (Json::ArrayIndex i = 0; i < 3; ++i)
-      pose.translation[i] = t[i].asDouble();
+    pose.translation = Eigen::Vector3d(t[0], t[1], t[2]);
     pose.pitch = this->Number(field + ".rotation_deg.pitch");
     pose.roll = this->Number(field + ".rotation_deg.roll");
     pose.yaw = this->Number(field + ".rotation_deg.yaw");
@@ -122,7 +144,17 @@ int RunReport(const ReportOptions& options)
   inputsOf.size = result.Text("inputs.size");
   inputsOf.isocenterInCT = result.Text("inputs.iso_ct");
   inputsOf.muWater = result.Number("inputs.mu_water");
-  const bool entropyMask = result.At("inputs.entropy_mask").asBool();
+  const bool entropyMask = result.Bool("inputs.entropy_mask");
+  // The report shows the registered X-rays: a file changed since (or replaced) is refused.
+  const std::vector<std::string> md5 = result.Texts("inputs.xray_md5");
+  if (md5.size() != inputsOf.xrays.size())
+    throw InputError(options.result, "field 'inputs.xray_md5' must hold one MD5 per X-ray");
+  for (size_t v = 0; v < md5.size(); ++v)
+  {
+    if (FileMD5(inputsOf.xrays[v]) != md5[v])
+      throw InputError(inputsOf.xrays[v], "differs from the X-ray that was registered (MD5 " + md5[v] +
+          " in " + options.result + "): the report would show other images than the result is based on");
+  }
   RegistrationInputs inputs = LoadRegistrationInputs(inputsOf);
 
   ReportContent content;
@@ -136,10 +168,15 @@ int RunReport(const ReportOptions& options)
   content.evaluations = static_cast<int>(result.Number("evaluations"));
   for (const char* stage : { "read", "prealign", "mask", "fine", "total" })
     content.seconds.emplace_back(stage, result.Number(std::string("timing_s.") + stage));
-  for (const Json::Value& value : result.At("convergence.objective"))
-    content.trace.push_back(value.asDouble());
-  for (const Json::Value& stage : result.At("convergence.stages"))
+  content.trace = result.Numbers("convergence.objective");
+  const Json::Value& stages = result.At("convergence.stages");
+  for (Json::ArrayIndex n = 0; stages.isArray() && n < stages.size(); ++n)
+  {
+    const Json::Value& stage = stages[n];
+    if (!stage.isObject() || !stage["name"].isString() || !stage["first_evaluation"].isInt())
+      throw InputError(options.result, "field 'convergence.stages' must list {name, first_evaluation}");
     content.stages.emplace_back(stage["name"].asString(), stage["first_evaluation"].asInt());
+  }
   content.title = "CT " + inputsOf.ct + "; X-rays";
   for (const std::string& xray : inputsOf.xrays)
     content.title += " " + xray;

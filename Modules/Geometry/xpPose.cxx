@@ -31,6 +31,11 @@ Eigen::Matrix3d Pose::Rotation() const
   return RotationFromAngles(this->pitch, this->roll, this->yaw);
 }
 
+double Pose::RotationAngle() const
+{
+  return Eigen::AngleAxisd(this->Rotation()).angle() * DegreesPerRadian;
+}
+
 Eigen::Isometry3d Pose::ToTransform(const Eigen::Vector3d& isocenter) const
 {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();

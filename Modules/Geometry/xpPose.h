@@ -27,6 +27,9 @@ struct VTKXPGEOMETRY_EXPORT Pose
 
   Eigen::Matrix3d Rotation() const;
 
+  /** The angle of the whole rotation about its own axis, degrees in [0, 180]. */
+  double RotationAngle() const;
+
   /** The Room-to-Room transform p -> R (p - iso) + iso + t. */
   Eigen::Isometry3d ToTransform(const Eigen::Vector3d& isocenter) const;
 

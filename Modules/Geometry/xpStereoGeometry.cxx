@@ -5,6 +5,9 @@
 #include <vtk_jsoncpp.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -34,9 +37,11 @@ const Json::Value& Member(const Json::Value& object, const char* key, const std:
 
 double Number(const Json::Value& value, const std::string& origin, const std::string& field)
 {
-  if (!value.isNumeric())
+  // Room coordinates are millimetres: beyond a kilometre a value is a mistake, and would
+  // overflow the projection arithmetic long before that mattered.
+  if (!value.isNumeric() || !(std::abs(value.asDouble()) <= 1e6))
   {
-    throw InputError(Where(origin, field), "not a number");
+    throw InputError(Where(origin, field), "not a finite number within +-1e6");
   }
   return value.asDouble();
 }
@@ -61,11 +66,16 @@ XRayView ParseView(const Json::Value& imager, const std::string& origin, const s
 {
   XRayView view;
   const Json::Value& name = Member(imager, "name", origin, field + ".name");
-  if (!name.isString() || name.asString().empty())
+  // The name becomes part of output file names (drr_NAME.png): letters, digits, '-' and '_' only.
+  const std::string text = name.isString() ? name.asString() : std::string();
+  const bool safe = !text.empty() && text.size() <= 32 && std::all_of(text.begin(), text.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
+  });
+  if (!safe)
   {
-    throw InputError(Where(origin, field + ".name"), "expected a non-empty string");
+    throw InputError(Where(origin, field + ".name"), "expected 1 to 32 letters, digits, '-' or '_'");
   }
-  view.name = name.asString();
+  view.name = text;
   view.source = Vector<3>(Member(imager, "source", origin, field + ".source"), origin, field + ".source");
   const std::string det = field + ".detector";
   const Json::Value& detector = Member(imager, "detector", origin, det);
@@ -77,9 +87,9 @@ XRayView ParseView(const Json::Value& imager, const std::string& origin, const s
   view.pixelSpacing = Vector<2>(
     Member(detector, "pixel_spacing", origin, det + ".pixel_spacing"), origin, det + ".pixel_spacing");
   const Eigen::Vector2d size = Vector<2>(Member(detector, "size", origin, det + ".size"), origin, det + ".size");
-  if (size[0] != std::floor(size[0]) || size[1] != std::floor(size[1]))
+  if (size[0] != std::floor(size[0]) || size[1] != std::floor(size[1]) || size.minCoeff() < 1 || size.maxCoeff() > 16384)
   {
-    throw InputError(Where(origin, det + ".size"), "expected whole numbers of pixels");
+    throw InputError(Where(origin, det + ".size"), "expected whole numbers of pixels between 1 and 16384");
   }
   view.size = size.cast<int>();
   return view;
@@ -120,7 +130,7 @@ void ValidateView(const XRayView& view, const Eigen::Vector3d& isocenter, const 
   {
     throw InputError(Where(origin, det + ".size"), "must be between 1 and 16384 pixels");
   }
-  if (view.SourceToPanelDistance() < 1.0)
+  if (!(view.SourceToPanelDistance() >= 1.0))
   {
     throw InputError(Where(origin, field + ".source"), "lies on the panel plane");
   }
@@ -200,6 +210,10 @@ StereoGeometry ParseStereoGeometry(const std::string& jsonText, const std::strin
   StereoGeometry geometry;
   if (root.isMember("name"))
   {
+    if (!root["name"].isString())
+    {
+      throw InputError(Where(origin, "name"), "expected a string");
+    }
     geometry.name = root["name"].asString();
   }
   if (root.isMember("isocenter"))

@@ -16,8 +16,11 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <dirent.h>
+#include <fnmatch.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <vtksys/MD5.h>
 
 namespace xp
 {
@@ -150,6 +153,27 @@ StagedOutputDirectory::StagedOutputDirectory(const std::string& directory)
   this->Staging = pattern;
 }
 
+void StagedOutputDirectory::CheckWritable(const std::string& directory)
+{
+  // Walk up to the first part of the path that exists: it must be a folder we may write into.
+  std::string existing = directory.empty() ? "." : directory;
+  struct stat status;
+  while (stat(existing.c_str(), &status) != 0)
+  {
+    const size_t slash = existing.find_last_of('/', existing.size() > 1 ? existing.size() - 2 : 0);
+    existing = slash == std::string::npos ? "." : (slash == 0 ? "/" : existing.substr(0, slash));
+  }
+  if (!S_ISDIR(status.st_mode))
+  {
+    throw InputError(directory, existing == directory ? "exists and is not a folder"
+                                                      : existing + " is not a folder, so the output folder cannot be made");
+  }
+  if (access(existing.c_str(), W_OK | X_OK) != 0)
+  {
+    throw InputError(directory, "cannot write into " + existing + ": " + std::strerror(errno));
+  }
+}
+
 StagedOutputDirectory::~StagedOutputDirectory()
 {
   if (!this->Committed)
@@ -170,6 +194,10 @@ std::string StagedOutputDirectory::Path(const std::string& fileName)
 
 void StagedOutputDirectory::Commit()
 {
+  if (!this->Names.empty())
+  {
+    std::remove((this->Final + "/" + this->Names.back()).c_str());
+  }
   for (const std::string& name : this->Names)
   {
     const std::string from = this->Staging + "/" + name, to = this->Final + "/" + name;
@@ -180,6 +208,46 @@ void StagedOutputDirectory::Commit()
     }
   }
   this->Committed = true;
+  if (this->EarlierPatterns.empty())
+  {
+    return;
+  }
+  DIR* folder = opendir(this->Final.c_str());
+  while (dirent* entry = folder ? readdir(folder) : nullptr)
+  {
+    const std::string name = entry->d_name;
+    const bool ours = std::find(this->Names.begin(), this->Names.end(), name) != this->Names.end();
+    const bool earlier = std::any_of(this->EarlierPatterns.begin(), this->EarlierPatterns.end(),
+      [&](const std::string& pattern) { return fnmatch(pattern.c_str(), name.c_str(), 0) == 0; });
+    if (earlier && !ours)
+    {
+      std::remove((this->Final + "/" + name).c_str());
+    }
+  }
+  if (folder)
+  {
+    closedir(folder);
+  }
+}
+
+std::string FileMD5(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+  {
+    throw InputError(path, "cannot be read");
+  }
+  vtksysMD5* md5 = vtksysMD5_New();
+  vtksysMD5_Initialize(md5);
+  std::vector<char> buffer(1 << 20);
+  while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) || in.gcount() > 0)
+  {
+    vtksysMD5_Append(md5, reinterpret_cast<const unsigned char*>(buffer.data()), static_cast<int>(in.gcount()));
+  }
+  char hex[33] = {};
+  vtksysMD5_FinalizeHex(md5, hex);
+  vtksysMD5_Delete(md5);
+  return hex;
 }
 
 } // namespace xp

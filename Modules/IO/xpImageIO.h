@@ -45,6 +45,9 @@ VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path
  */
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path);
 
+/** The MD5 of a file's bytes as 32 hex digits: identifies an input file in a result record. */
+VTKXPIO_EXPORT std::string FileMD5(const std::string& path);
+
 /**
  * Collects output files in a hidden staging folder inside `directory` and moves them into place
  * only on Commit(): a command that fails half-way leaves nothing half-written behind.
@@ -58,12 +61,28 @@ public:
   StagedOutputDirectory(const StagedOutputDirectory&) = delete;
   StagedOutputDirectory& operator=(const StagedOutputDirectory&) = delete;
 
+  /**
+   * Checks, without creating anything, that `directory` is a writable folder or could be
+   * created as one; throws xp::InputError naming it otherwise. For checks before long work.
+   */
+  static void CheckWritable(const std::string& directory);
+
   /** Where to write `fileName` now (inside the staging folder). */
   std::string Path(const std::string& fileName);
   /** The staging folder itself, for writers that create files by name; register each with Track. */
   const std::string& StagingFolder() const { return this->Staging; }
   void Track(const std::string& fileName) { this->Names.push_back(fileName); }
-  /** Moves every staged file into the directory (replacing older files of the same name). */
+  /**
+   * Files already in the directory that match one of these patterns (fnmatch, e.g.
+   * "entropy_*.png") and that this run does not write are removed on Commit, so that a folder
+   * never mixes the outputs of two runs.
+   */
+  void ReplaceEarlier(const std::vector<std::string>& patterns) { this->EarlierPatterns = patterns; }
+  /**
+   * Moves the staged files into the directory in the order they were added, replacing older
+   * files of the same name. Add the record that marks a complete output (result.json) last:
+   * its older copy is removed before anything moves, and the new one arrives after the rest.
+   */
   void Commit();
 
   const std::string& Directory() const { return this->Final; }
@@ -72,6 +91,7 @@ private:
   std::string Final;
   std::string Staging;
   std::vector<std::string> Names;
+  std::vector<std::string> EarlierPatterns;
   bool Committed = false;
 };
 

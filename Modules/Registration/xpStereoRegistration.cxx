@@ -141,6 +141,20 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   {
     throw InputError("registration", "a stereo registration needs at least two views");
   }
+  // A NaN or negative limit would switch the gate off without a word.
+  for (const auto& [limit, name] : { std::make_pair(settings.maxTranslation, "maxTranslation"),
+         std::make_pair(settings.maxRotation, "maxRotation"), std::make_pair(settings.maxViewResidual, "maxViewResidual"),
+         std::make_pair(settings.maxUncovered, "maxUncovered") })
+  {
+    if (!(limit > 0.0 && std::isfinite(limit)))
+    {
+      throw InputError(std::string("registration settings: ") + name, "must be finite and positive");
+    }
+  }
+  if (!(settings.minExplained >= 0.0 && settings.minExplained <= 1.0))
+  {
+    throw InputError("registration settings: minExplained", "must be between 0 and 1");
+  }
   StereoRegistrationResult result;
   const bool pyramid = settings.pyramid && views[0].view.Columns() >= 256 && views[0].view.Rows() >= 192;
 
@@ -284,11 +298,15 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // 4. Quality gate.
   if (!fineResult.converged)
     result.reasons.push_back("the optimiser did not converge (" + fineResult.stopReason + ")");
+  // Limits on the whole motion: the translation's length and the rotation's angle about its
+  // own axis, as the table would move; written so that a NaN fails them.
   const Pose& m = result.misalignment;
-  if (m.translation.cwiseAbs().maxCoeff() > settings.maxTranslation)
-    result.reasons.push_back(Format("the correction exceeds %.1f mm", settings.maxTranslation));
-  if (std::max({ std::abs(m.pitch), std::abs(m.roll), std::abs(m.yaw) }) > settings.maxRotation)
-    result.reasons.push_back(Format("the correction exceeds %.1f degrees", settings.maxRotation));
+  if (!(m.translation.norm() <= settings.maxTranslation))
+    result.reasons.push_back(Format("the correction's translation (%.1f mm) exceeds %.1f mm", m.translation.norm(),
+      settings.maxTranslation));
+  if (!(m.RotationAngle() <= settings.maxRotation))
+    result.reasons.push_back(Format("the correction's rotation (%.1f degrees) exceeds %.1f degrees", m.RotationAngle(),
+      settings.maxRotation));
   JointHistogram histogram(settings.bins);
   for (size_t v = 0; v < masked.size(); ++v)
   {
@@ -300,14 +318,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       item.mask.data(), item.mask.data());
     const double explained = histogram.FixedEntropy() > 0 ? histogram.MutualInformation() / histogram.FixedEntropy() : 0.0;
     result.explained.push_back(explained);
-    if (explained < settings.minExplained)
+    if (!(explained >= settings.minExplained))
       result.reasons.push_back("view " + item.view.name +
         Format(": the final DRR explains %.3f of the X-ray's information (< %.3f)", explained, settings.minExplained));
     // A CT shorter than the X-ray's field can slide to match the wrong level (a vertebra off)
     // and still explain enough of what it covers: the anatomy it leaves unexplained shows it.
     const double uncovered = UncoveredFraction(item.xray, fine.LastDRR(v), item.mask);
     result.uncovered.push_back(uncovered);
-    if (uncovered > settings.maxUncovered)
+    if (!(uncovered <= settings.maxUncovered))
       result.reasons.push_back("view " + item.view.name +
         Format(": %.0f %% of the valid pixels show anatomy where the CT has none at the result (> %.0f %%): the CT does "
                "not cover what the X-ray shows; a ROI around the anatomy the CT covers can exclude the rest",
@@ -317,7 +335,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       item.view.Project(isocenter), item.mask.data(), settings.bins);
     const double shiftMM = residual.shift.norm() * item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() /
       item.view.SourceToPanelDistance();
-    if (shiftMM > settings.maxViewResidual || std::abs(residual.rotation) > 1.0)
+    if (!(shiftMM <= settings.maxViewResidual && std::abs(residual.rotation) <= 1.0))
       result.reasons.push_back("view " + item.view.name +
         Format(" disagrees with the 3D result: residual %.2f mm, %.2f degrees in 2D", shiftMM, residual.rotation));
   }
