@@ -75,11 +75,18 @@ bool ClipToBox(const IndexRay& ray, const Eigen::Vector3d& lo, const Eigen::Vect
   return t0 < t1;
 }
 
+// Clang refuses noinline beside target_clones; GCC builds keep it as they always had it.
+#if defined(__clang__)
+#define XP_AVX2_AND_BASELINE __attribute__((target_clones("avx2", "default")))
+#else
+#define XP_AVX2_AND_BASELINE __attribute__((target_clones("avx2", "default"), noinline))
+#endif
+
 /**
  * Sum of trilinear samples k0 <= k < k1 at start + (k + 0.5) * step * direction, in volume steps
  * (AttenuationVolume::Quantum). Built twice (AVX2 and baseline) and picked at load time.
  */
-__attribute__((target_clones("avx2", "default"), noinline)) float SampleRun(const uint16_t* voxels, long nx,
+XP_AVX2_AND_BASELINE float SampleRun(const uint16_t* voxels, long nx,
   long nxy, const float start[3], const float step[3], long k0, long k1, const float upper[3])
 {
   float sum = 0.0f;

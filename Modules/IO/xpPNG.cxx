@@ -4,6 +4,7 @@
 
 #include <png.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -38,7 +39,8 @@ void OnWarning(png_structp, png_const_charp)
  * `out` and `error` changes after setjmp, so nothing is left indeterminate by a longjmp, and no
  * C++ object is created or destroyed in this frame after it.
  */
-bool Decode(png_structp png, png_infop info, DecodedPNG* out, std::vector<uint8_t>* bytes, std::vector<png_bytep>* rows)
+bool Decode(png_structp png, png_infop info, uint64_t fileBytes, DecodedPNG* out, std::vector<uint8_t>* bytes,
+  std::vector<png_bytep>* rows, ErrorText* error)
 {
   if (setjmp(png_jmpbuf(png)))
   {
@@ -56,6 +58,14 @@ bool Decode(png_structp png, png_infop info, DecodedPNG* out, std::vector<uint8_
   png_read_update_info(png, info);
   out->channels = png_get_channels(png, info);
   const size_t rowBytes = png_get_rowbytes(png, info);
+  // Deflate compresses at most about 1032:1: a header that declares more pixels than the file
+  // could hold is refused before a buffer of its size is allocated.
+  if (static_cast<uint64_t>(rowBytes) * static_cast<uint64_t>(out->rows) > 1100 * fileBytes + (1 << 16))
+  {
+    std::snprintf(error->text, sizeof(error->text), "the header declares %dx%d pixels, more than a %llu-byte file can hold",
+      out->columns, out->rows, static_cast<unsigned long long>(fileBytes));
+    return false;
+  }
   bytes->resize(rowBytes * static_cast<size_t>(out->rows));
   rows->resize(static_cast<size_t>(out->rows));
   for (int r = 0; r < out->rows; ++r)
@@ -104,7 +114,10 @@ DecodedPNG DecodePNG(const std::string& path)
   DecodedPNG image;
   std::vector<uint8_t> bytes;
   std::vector<png_bytep> rows;
-  const bool decoded = Decode(png, info, &image, &bytes, &rows);
+  std::fseek(file.get(), 0, SEEK_END);
+  const uint64_t fileBytes = static_cast<uint64_t>(std::max(0L, std::ftell(file.get())));
+  std::fseek(file.get(), 8, SEEK_SET);
+  const bool decoded = Decode(png, info, fileBytes, &image, &bytes, &rows, &error);
   png_destroy_read_struct(&png, &info, nullptr);
   if (!decoded)
   {

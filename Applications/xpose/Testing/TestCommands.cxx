@@ -590,3 +590,91 @@ TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
   options.seed = 8;
   EXPECT_EQ(xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(options); }), xp::ExitBadInput);
 }
+
+// --- Reliability (issue 17): bad input ends with exit 2 before any work, never with `ok`. ---
+
+TEST(Commands, NonFiniteOrNegativeGateLimitsAreRefused)
+{
+  const xp::RegisterOptions good = RegisterSimulated("cmd-no-such", "cmd-reg-limits");
+  for (const auto& [translation, rotation] : { std::make_pair(std::nan(""), 10.0), std::make_pair(50.0, std::nan("")),
+         std::make_pair(-1.0, 10.0), std::make_pair(50.0, -2.0), std::make_pair(HUGE_VAL, 10.0) })
+  {
+    xp::RegisterOptions options = good;
+    options.maxTranslation = translation;
+    options.maxRotation = rotation;
+    EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput)
+      << translation << " mm, " << rotation << " degrees";
+  }
+  EXPECT_FALSE(Exists("cmd-reg-limits"));
+}
+
+TEST(Commands, TheTranslationLimitIsOnTheVectorLength)
+{
+  // Simulated (5, -3, 2) mm: 6.2 mm long, 5 mm on its largest axis. A 5.5 mm limit passed it per axis.
+  ASSERT_EQ(std::system("rm -rf cmd-len-sim cmd-len"), 0);
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "5,-3,2,1,-1,1.5", 20.0, false, "cmd-len-sim");
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  xp::RegisterOptions options = RegisterSimulated("cmd-len-sim", "cmd-len");
+  options.maxTranslation = 5.5;
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
+  const std::string result = ReadText("cmd-len/result.json");
+  EXPECT_NE(result.find("\"status\": \"failed\""), std::string::npos) << result;
+  EXPECT_NE(result.find("exceeds 5.5 mm"), std::string::npos) << result;
+}
+
+TEST(Commands, UnwritableOutputsAndTheSameXRayTwiceAreRefusedBeforeTheWork)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-early-sim cmd-early cmd-early-file && touch cmd-early-file"), 0);
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "2,1,0,0,0,0", 10.0, false, "cmd-early-sim");
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  xp::RegisterOptions options = RegisterSimulated("cmd-early-sim", "cmd-early");
+  options.reportDirectory = "cmd-early-file"; // a file, not a folder
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-early/result.json")) << "no result may be written when the report cannot be";
+  options = RegisterSimulated("cmd-early-sim", "cmd-early-file/out");
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput);
+  options = RegisterSimulated("cmd-early-sim", "cmd-early");
+  options.xrays[1] = options.xrays[0];
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-early"));
+}
+
+TEST(Commands, ARerunReplacesEveryOutputAndReportChecksTheXRays)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-rerun-sim cmd-rerun && mkdir cmd-rerun && touch cmd-rerun/entropy_Z.png "
+                        "cmd-rerun/mask_Z.png cmd-rerun/notes.txt"), 0);
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "3,-2,1,0,0,1", 10.0, false, "cmd-rerun-sim");
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  const xp::RegisterOptions options = RegisterSimulated("cmd-rerun-sim", "cmd-rerun");
+  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+  EXPECT_FALSE(Exists("cmd-rerun/entropy_Z.png")) << "an earlier run's image was left beside this run's result";
+  EXPECT_FALSE(Exists("cmd-rerun/mask_Z.png"));
+  EXPECT_TRUE(Exists("cmd-rerun/notes.txt")) << "files xpose does not write are the user's";
+  EXPECT_NE(ReadText("cmd-rerun/result.json").find("\"xray_md5\""), std::string::npos);
+  // The X-ray changes after the registration: the report would show other images, so it refuses.
+  ASSERT_EQ(std::system("cp cmd-rerun-sim/xray_B.png cmd-rerun-sim/xray_A.png"), 0);
+  xp::ReportOptions report;
+  report.result = "cmd-rerun/result.json";
+  report.outputDirectory = "cmd-rerun-report";
+  EXPECT_EQ(xp::GuardedRun("report", [&] { return xp::RunReport(report); }), xp::ExitBadInput);
+}
+
+TEST(Commands, WorkBeyondReasonAndClampedOptionsAreRefused)
+{
+  xp::DRROptions drr = SmallDRR("cmd-step");
+  drr.stepSize = 1e-9;
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitBadInput) << "a step that never ends";
+  drr.stepSize = 0.05; // finer than 1/16 of the 3 mm voxels
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitBadInput);
+  drr.stepSize = std::nan("");
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-step"));
+  xp::MaskOptions mask;
+  mask.xray = "cmd-no-such.png";
+  mask.outputDirectory = "cmd-mask-window";
+  mask.window = 100;
+  EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(mask); }), xp::ExitBadInput);
+  mask.window = 7;
+  mask.binWidth = 0;
+  EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(mask); }), xp::ExitBadInput);
+}
