@@ -313,8 +313,11 @@ std::string SummaryTable(const std::vector<TrialRecord>& records)
   }
   table << "\n| initial error band (mm) | trials | success A | success B | median mTRE A (mm) | median mTRE B (mm) | median time A (s) | "
            "median time B (s) |\n|---|---|---|---|---|---|---|---|\n";
-  for (auto& [band, groups] : byBand)
+  for (auto& entry : byBand)
   {
+    // Not a structured binding: C++17 lambdas cannot capture one (clang refuses).
+    const int band = entry.first;
+    auto& groups = entry.second;
     const auto median = [&](const std::string& approach, auto value) {
       return groups.count(approach) ? Quantile(column(groups[approach], value), 0.5) : NAN;
     };
