@@ -60,46 +60,72 @@ public:
 
   DICOMLayout Walk()
   {
-    size_t pos = 0;
-    if (this->Bytes.size() >= 132 && std::memcmp(this->Bytes.data() + 128, "DICM", 4) == 0)
+    // Only DICOM Part 10 files: without the preamble and file meta information GDCM guesses the
+    // encoding in a "compatibility" parser that asserts on damaged input.
+    if (this->Bytes.size() < 132 || std::memcmp(this->Bytes.data() + 128, "DICM", 4) != 0)
     {
-      pos = 132;
+      throw InputError(this->Path, "not a DICOM Part 10 file (no 'DICM' preamble at byte 128)");
     }
+    size_t pos = 132;
     // File meta information: group 0002, always explicit VR little endian.
     this->Explicit = true;
+    int64_t groupLength = -1;
+    size_t groupStart = 0;
     while (pos + 8 <= this->Bytes.size() && this->U16(pos) == 0x0002)
     {
       pos = this->Element(pos, this->Bytes.size(), 0);
+      if (this->LastTag == Tag(0x0002, 0x0000) && pos - this->LastValue == 4)
+      {
+        groupLength = this->U32(this->LastValue);
+        groupStart = pos;
+      }
       if (this->LastTag == Tag(0x0002, 0x0010))
       {
         this->Layout.transferSyntax = this->Text(this->LastValue, pos - this->LastValue);
       }
     }
-    const std::string& syntax = this->Layout.transferSyntax;
-    if (syntax == "1.2.840.10008.1.2.1.99")
+    if (groupLength >= 0 && static_cast<uint64_t>(groupLength) != pos - groupStart)
     {
-      throw InputError(this->Path, "Transfer Syntax UID (0002,0010) is deflated explicit VR, which is not supported");
+      throw InputError(this->Path, "corrupt DICOM: File Meta Information Group Length (0002,0000) = " +
+          std::to_string(groupLength) + " where the group holds " + std::to_string(pos - groupStart) + " bytes");
     }
+    const std::string& syntax = this->Layout.transferSyntax;
     if (syntax.empty())
     {
-      // No meta header: guess as GDCM does, from whether a VR follows the first tag.
-      this->Explicit = pos + 6 <= this->Bytes.size() && IsVR(this->Bytes.data() + pos + 4);
+      throw InputError(this->Path, "Transfer Syntax UID (0002,0010) missing from the file meta information");
     }
-    else
+    static const char* const native[] = { "1.2.840.10008.1.2", "1.2.840.10008.1.2.1", "1.2.840.10008.1.2.2" };
+    static const char* const encapsulated[] = { "1.2.840.10008.1.2.4.50", "1.2.840.10008.1.2.4.51",
+      "1.2.840.10008.1.2.4.57", "1.2.840.10008.1.2.4.70", "1.2.840.10008.1.2.4.80", "1.2.840.10008.1.2.4.81",
+      "1.2.840.10008.1.2.4.90", "1.2.840.10008.1.2.4.91", "1.2.840.10008.1.2.5" };
+    const auto listed = [&](const auto& list) {
+      return std::find(std::begin(list), std::end(list), syntax) != std::end(list);
+    };
+    if (!listed(native) && !listed(encapsulated))
     {
-      this->Explicit = syntax != "1.2.840.10008.1.2";
-      this->BigEndian = syntax == "1.2.840.10008.1.2.2";
+      throw InputError(this->Path, "Transfer Syntax UID (0002,0010) = '" + syntax +
+          "' is not supported (implicit/explicit VR, JPEG, JPEG-LS, JPEG 2000 or RLE)");
     }
-    this->Layout.encapsulated = this->Explicit && !syntax.empty() && syntax != "1.2.840.10008.1.2.1" &&
-      syntax != "1.2.840.10008.1.2.2";
+    this->Explicit = syntax != native[0];
+    this->BigEndian = syntax == native[2];
+    this->Layout.encapsulated = listed(encapsulated);
     this->Elements(pos, this->Bytes.size(), 0, false);
     return this->Layout;
   }
 
 private:
+  /** One of the VRs of PS3.5 6.2: GDCM reads any other pair of letters its own way. */
   static bool IsVR(const char* vr)
   {
-    return vr[0] >= 'A' && vr[0] <= 'Z' && vr[1] >= 'A' && vr[1] <= 'Z';
+    static const char* const known[] = { "AE", "AS", "AT", "CS", "DA", "DS", "DT", "FD", "FL", "IS", "LO", "LT", "OB",
+      "OD", "OF", "OL", "OV", "OW", "PN", "SH", "SL", "SQ", "SS", "ST", "SV", "TM", "UC", "UI", "UL", "UN", "UR", "US",
+      "UT", "UV" };
+    for (const char* v : known)
+    {
+      if (vr[0] == v[0] && vr[1] == v[1])
+        return true;
+    }
+    return false;
   }
 
   uint16_t U16(size_t at) const
@@ -146,7 +172,7 @@ private:
       const char* vr = this->Bytes.data() + pos + 4;
       if (!IsVR(vr))
       {
-        this->Fail(pos, tag, "has no valid VR");
+        this->Fail(pos, tag, "has no valid VR ('" + std::string(vr, 2) + "')");
       }
       if (HasLongLength(vr))
       {

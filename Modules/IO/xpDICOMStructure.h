@@ -20,7 +20,7 @@ namespace xp
 /** What the walk learned about a file that passed it. */
 struct DICOMLayout
 {
-  std::string transferSyntax; ///< (0002,0010), empty when the file has no meta header
+  std::string transferSyntax; ///< (0002,0010)
   bool encapsulated = false;  ///< pixel data in fragments (compressed transfer syntax)
   bool hasPixelData = false;
   uint64_t pixelDataBytes = 0; ///< native pixel data length; 0 when encapsulated
@@ -38,8 +38,9 @@ bool LooksLikeDICOM(const std::string& path);
 /**
  * Walks every data element of `path`. Throws xp::InputError naming the file, the element and
  * the byte offset when an element's length runs past the file (or its enclosing item), a
- * sequence or item is not terminated, a VR is not two capital letters, or the transfer syntax
- * is deflated (not supported).
+ * sequence or item is not terminated, a VR is not one of DICOM's, the file is not Part 10
+ * (preamble, "DICM", file meta information with its group length), or the transfer syntax is
+ * not one xpose reads (deflated, for one).
  */
 DICOMLayout CheckDICOMStructure(const std::string& path);
 
