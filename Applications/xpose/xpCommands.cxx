@@ -95,6 +95,7 @@ void UseThreads(int threads)
 
 int RunPhantom(const PhantomOptions& options)
 {
+  CheckLimit(options.spacing, 0.25, 10.0, "--spacing");
   if (DIR* existing = opendir(options.outputDirectory.c_str()))
   {
     int entries = 0;

@@ -177,9 +177,12 @@ int RunEvaluate(const EvaluateOptions& options)
   {
     throw InputError("--trials", "must be 1 or more");
   }
-  if (!(options.minTranslation >= 0.0 && options.maxTranslation >= options.minTranslation))
+  CheckLimit(options.noise, 0.0, 1000.0, "--noise");
+  CheckLimit(options.successMTRE, 0.01, 100.0, "--success-mtre");
+  CheckLimit(options.trials, 1, 100000, "--trials");
+  if (!(options.minTranslation >= 0.0 && options.maxTranslation >= options.minTranslation && options.maxTranslation <= 200.0))
   {
-    throw InputError("--max-translation", "must be at least --min-translation, and both 0 or more");
+    throw InputError("--max-translation", "must be at least --min-translation and at most 200 mm, both 0 or more");
   }
   if (!(options.maxRotation >= 0.0 && options.maxRotation <= 10.0))
   {

@@ -19,6 +19,7 @@ namespace xp
 int RunSimulate(const SimulateOptions& options)
 {
   UseThreads(options.threads);
+  CheckLimit(options.noise, 0.0, 1000.0, "--noise");
   const Pose pose = Pose::Parse(options.pose, "--pose");
   std::pair<int, int> size{ 0, 0 };
   if (!options.size.empty())

@@ -307,6 +307,15 @@ private:
       case Tag(0x0028, 0x0100):
         this->Layout.bitsAllocated = us();
         break;
+      case Tag(0x0028, 0x0101):
+        this->Layout.bitsStored = us();
+        break;
+      case Tag(0x0028, 0x0102):
+        this->Layout.highBit = us();
+        break;
+      case Tag(0x0008, 0x0010):
+        this->Layout.recognitionCode = this->Text(value, std::min<size_t>(length, 64));
+        break;
       case Tag(0x0028, 0x0002):
         this->Layout.samplesPerPixel = us();
         break;
@@ -383,9 +392,23 @@ void CheckPixelDataSize(const DICOMLayout& layout, const std::string& path, uint
   {
     throw InputError(path, "Rows (0028,0010) / Columns (0028,0011) missing or zero");
   }
-  if (layout.bitsAllocated == 0 || layout.bitsAllocated > 64)
+  if (layout.bitsAllocated != 8 && layout.bitsAllocated != 16 && layout.bitsAllocated != 32)
   {
-    throw InputError(path, "Bits Allocated (0028,0100) missing or invalid (" + std::to_string(layout.bitsAllocated) + ")");
+    throw InputError(path, "Bits Allocated (0028,0100) = " + std::to_string(layout.bitsAllocated) + ": expected 8, 16 or 32");
+  }
+  if (layout.bitsStored < 1 || layout.bitsStored > layout.bitsAllocated || layout.highBit != layout.bitsStored - 1)
+  {
+    throw InputError(path, "Bits Stored (0028,0101) = " + std::to_string(layout.bitsStored) + " and High Bit (0028,0102) = " +
+        std::to_string(layout.highBit) + " do not fit Bits Allocated = " + std::to_string(layout.bitsAllocated));
+  }
+  if (layout.samplesPerPixel > 1)
+  {
+    throw InputError(path, "Samples per Pixel (0028,0002) = " + std::to_string(layout.samplesPerPixel) + ": not a grey-scale image");
+  }
+  const std::string& code = layout.recognitionCode;
+  if (!code.empty() && code.rfind("ACR-NEMA", 0) != 0 && code.rfind("ACRNEMA", 0) != 0 && code.rfind("MIPS 2.0", 0) != 0)
+  {
+    throw InputError(path, "Recognition Code (0008,0010) = '" + code.substr(0, 16) + "' is not an ACR-NEMA code");
   }
   if (layout.frames == 0)
   {

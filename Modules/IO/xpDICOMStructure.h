@@ -25,7 +25,8 @@ struct DICOMLayout
   bool hasPixelData = false;
   uint64_t pixelDataBytes = 0; ///< native pixel data length; 0 when encapsulated
   // Top-level Image Pixel attributes (0 when absent).
-  uint32_t rows = 0, columns = 0, bitsAllocated = 0, samplesPerPixel = 0;
+  uint32_t rows = 0, columns = 0, bitsAllocated = 0, bitsStored = 0, highBit = 0, samplesPerPixel = 0;
+  std::string recognitionCode; ///< (0008,0010), retired ACR-NEMA; GDCM asserts on odd values
   uint32_t frames = 1; ///< Number of Frames (0028,0008), 1 when absent
 
   /** Bytes that native pixel data of these attributes needs. */
@@ -45,9 +46,10 @@ bool LooksLikeDICOM(const std::string& path);
 DICOMLayout CheckDICOMStructure(const std::string& path);
 
 /**
- * Checks the image attributes of a walked file: Rows, Columns and Bits Allocated present and
- * non-zero, Rows x Columns within `maxPixels`, and native pixel data at least as long as they
- * need (GDCM pads short pixel data silently). Throws xp::InputError naming the file and field.
+ * Checks the image attributes of a walked file before GDCM decodes it: Rows and Columns present
+ * and within `maxPixels`, Bits Allocated 8, 16 or 32 (GDCM asserts on others), Bits Stored and
+ * High Bit consistent with it, and native pixel data at least as long as they need (GDCM pads
+ * short pixel data silently). Throws xp::InputError naming the file and field.
  */
 void CheckPixelDataSize(const DICOMLayout& layout, const std::string& path, uint64_t maxPixels);
 
