@@ -7,7 +7,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 #include <strings.h>
 #include <vector>
 
@@ -369,12 +368,16 @@ bool LooksLikeDICOM(const std::string& path)
 
 DICOMLayout CheckDICOMStructure(const std::string& path)
 {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in)
   {
     throw InputError(path, "cannot open the DICOM file");
   }
-  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<char> bytes(static_cast<size_t>(std::max<std::streamoff>(0, in.tellg())));
+  if (!in.seekg(0) || !in.read(bytes.data(), static_cast<std::streamsize>(bytes.size())))
+  {
+    throw InputError(path, "cannot read the DICOM file");
+  }
   if (bytes.size() < 8)
   {
     throw InputError(path, "corrupt or truncated DICOM: only " + std::to_string(bytes.size()) + " bytes");
