@@ -3,8 +3,8 @@
 # from seeds that xpose and its tests make, then prints executions, coverage and findings.
 # Usage: bash Utilities/fuzz.sh [RUNS] [MAX_SECONDS] [TARGET...]
 #   RUNS: executions per target (default 1000000); MAX_SECONDS: time cap per target (1800).
-# Crashing inputs land in build-fuzz/fuzz/artifacts/TARGET/; add them, once fixed, to
-# Testing/Fuzzing/regressions/TARGET/, which ctest replays in every build.
+# Crashing inputs land in build-fuzz/fuzz/artifacts/TARGET/ (emptied when TARGET starts); add
+# them, once fixed, to Testing/Fuzzing/regressions/TARGET/, which ctest replays in every build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-1000000}
@@ -44,6 +44,7 @@ printf '\n| target | executions | seconds | exec/s | coverage (cov) | features (
 for target in "${targets[@]}"; do
   corpus="$work/corpus/$target"
   artifacts="$work/artifacts/$target"
+  rm -rf "$artifacts"
   mkdir -p "$corpus" "$artifacts"
   log="$work/$target.log"
   start=$(date +%s)
