@@ -8,7 +8,6 @@
 #include <fstream>
 #include <map>
 #include <sstream>
-#include <sys/stat.h>
 
 namespace xp
 {
@@ -115,12 +114,6 @@ VoxelType ElementType(const std::string& name, const std::string& path)
     throw InputError(path, "ElementType: '" + name + "' is not supported (MET_CHAR ... MET_DOUBLE, one channel)");
   }
   return it->second;
-}
-
-uint64_t FileSize(const std::string& path)
-{
-  struct stat status;
-  return stat(path.c_str(), &status) == 0 ? static_cast<uint64_t>(status.st_size) : 0;
 }
 
 /** Inflates a zlib (or gzip) stream into exactly `expected` bytes; anything else is an error. */

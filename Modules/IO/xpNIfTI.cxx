@@ -9,7 +9,6 @@
 #include <cmath>
 #include <memory>
 #include <cstring>
-#include <sys/stat.h>
 
 namespace xp
 {
@@ -140,12 +139,6 @@ Eigen::Matrix4d IndexToRAS(const NIfTIHeader& h, const std::string& path)
     m.topLeftCorner<3, 3>() = spacing.asDiagonal();
   }
   return m;
-}
-
-uint64_t FileSize(const std::string& path)
-{
-  struct stat status;
-  return stat(path.c_str(), &status) == 0 ? static_cast<uint64_t>(status.st_size) : 0;
 }
 
 /** Reads exactly `count` bytes; zlib reads plain and gzip-compressed files alike. */

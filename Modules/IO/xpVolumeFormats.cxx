@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <sys/stat.h>
 
 namespace xp
 {
@@ -73,6 +74,12 @@ size_t VoxelBytes(VoxelType type)
       return 8;
   }
   return 0;
+}
+
+uint64_t FileSize(const std::string& path)
+{
+  struct stat status;
+  return stat(path.c_str(), &status) == 0 ? static_cast<uint64_t>(status.st_size) : 0;
 }
 
 uint64_t VolumeHeader::DataBytes() const

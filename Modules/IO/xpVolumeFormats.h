@@ -51,6 +51,9 @@ struct VolumeHeader
 
 size_t VoxelBytes(VoxelType type);
 
+/** Bytes in the file at `path` (0 when it cannot be read). */
+uint64_t FileSize(const std::string& path);
+
 /**
  * Checks what a header declares: at least 1 x 1 x 2 voxels and no more than the voxel limit,
  * finite positive spacing, finite origin, finite unit direction columns that span 3D, finite

@@ -6,11 +6,11 @@
 #include "xpError.h"
 #include "xpImageIO.h"
 #include "xpStereoGeometry.h"
+#include "xpTestDICOM.h"
 #include "xpTestFolders.h"
 #include "xpVolumeIO.h"
 
 #include <gdcmAttribute.h>
-#include <gdcmImageWriter.h>
 #include <gdcmReader.h>
 #include <gdcmWriter.h>
 #include <gtest/gtest.h>
@@ -176,24 +176,10 @@ TEST(ReaderRobustness, NonFiniteGeometryAndRowsBeyondTheDataAreRefused)
 TEST(ReaderRobustness, AnXRayMissingPartOfItsPixelDataIsRefused)
 {
   const std::string dir = FreshFolder("dx-cut");
-  gdcm::ImageWriter writer;
-  gdcm::Image& image = writer.GetImage();
-  image.SetNumberOfDimensions(2);
-  image.SetDimension(0, 64);
-  image.SetDimension(1, 48);
-  image.SetPixelFormat(gdcm::PixelFormat(1, 16, 12, 11, 0));
-  image.SetPhotometricInterpretation(gdcm::PhotometricInterpretation::MONOCHROME2);
-  std::vector<uint16_t> pixels(64 * 48, 1000);
-  gdcm::DataElement data(gdcm::Tag(0x7fe0, 0x0010));
-  data.SetByteValue(reinterpret_cast<const char*>(pixels.data()), static_cast<uint32_t>(pixels.size() * 2));
-  image.SetDataElement(data);
-  gdcm::Attribute<0x0008, 0x0060> modality{ "DX" };
-  writer.GetFile().GetDataSet().Replace(modality.GetAsDataElement());
-  writer.SetFileName((dir + "/dx.dcm").c_str());
-  ASSERT_TRUE(writer.Write());
+  xp::testing::WriteDX(dir + "/dx.dcm", "DX", false); // 40 x 30 pixels of 16 bits
   EXPECT_NO_THROW(xp::ReadXRayDICOM(dir + "/dx.dcm"));
   const std::string whole = Bytes(dir + "/dx.dcm");
-  std::ofstream(dir + "/dx.dcm", std::ios::binary | std::ios::trunc).write(whole.data(), whole.size() - pixels.size());
+  std::ofstream(dir + "/dx.dcm", std::ios::binary | std::ios::trunc).write(whole.data(), whole.size() - 40 * 30);
   const std::string message = Refusal([&] { xp::ReadXRayDICOM(dir + "/dx.dcm"); }, "half the pixel data");
   EXPECT_TRUE(Contains(message, "dx.dcm") && Contains(message, "(7FE0,0010)")) << message;
 }
