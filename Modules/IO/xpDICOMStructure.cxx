@@ -70,8 +70,14 @@ public:
     this->Explicit = true;
     int64_t groupLength = -1;
     size_t groupStart = 0;
+    uint32_t previous = 0; // every meta tag is above (0000,0000)
     while (pos + 8 <= this->Bytes.size() && this->U16(pos) == 0x0002)
     {
+      if (this->TagAt(pos) <= previous)
+      {
+        this->Fail(pos, this->TagAt(pos), "is out of order or repeated (after " + TagText(previous) + ")");
+      }
+      previous = this->TagAt(pos);
       pos = this->Element(pos, this->Bytes.size(), 0);
       if (this->LastTag == Tag(0x0002, 0x0000) && pos - this->LastValue == 4)
       {
@@ -224,6 +230,10 @@ private:
   /** Walks elements until `end`, or until an item delimiter when `untilItemEnd`. */
   size_t Elements(size_t pos, size_t end, int depth, bool untilItemEnd)
   {
+    // A data set holds each tag once, in ascending order. GDCM keeps the first of repeated
+    // tags, so a repeat could show it other values than this walk checked.
+    uint32_t previous = 0;
+    bool first = true;
     while (pos < end)
     {
       if (end - pos >= 8 && this->TagAt(pos) == ItemEndTag)
@@ -234,6 +244,13 @@ private:
         }
         return pos + 8;
       }
+      const uint32_t tag = end - pos >= 4 ? this->TagAt(pos) : 0;
+      if (!first && tag <= previous)
+      {
+        this->Fail(pos, tag, "is out of order or repeated (after " + TagText(previous) + ")");
+      }
+      first = false;
+      previous = tag;
       pos = this->Element(pos, end, depth);
     }
     if (untilItemEnd)
