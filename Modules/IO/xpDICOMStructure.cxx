@@ -421,7 +421,7 @@ void CheckPixelDataSize(const DICOMLayout& layout, const std::string& path, uint
     throw InputError(path, "Bits Stored (0028,0101) = " + std::to_string(layout.bitsStored) + " and High Bit (0028,0102) = " +
         std::to_string(layout.highBit) + " do not fit Bits Allocated = " + std::to_string(layout.bitsAllocated));
   }
-  if (layout.samplesPerPixel > 1)
+  if (layout.samplesPerPixel != 1)
   {
     throw InputError(path, "Samples per Pixel (0028,0002) = " + std::to_string(layout.samplesPerPixel) + ": not a grey-scale image");
   }

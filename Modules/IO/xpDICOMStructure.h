@@ -25,7 +25,8 @@ struct DICOMLayout
   bool hasPixelData = false;
   uint64_t pixelDataBytes = 0; ///< native pixel data length; 0 when encapsulated
   // Top-level Image Pixel attributes (0 when absent).
-  uint32_t rows = 0, columns = 0, bitsAllocated = 0, bitsStored = 0, highBit = 0, samplesPerPixel = 0;
+  uint32_t rows = 0, columns = 0, bitsAllocated = 0, bitsStored = 0, highBit = 0;
+  uint32_t samplesPerPixel = 1; ///< (0028,0002), 1 when absent
   std::string recognitionCode; ///< (0008,0010), retired ACR-NEMA; GDCM asserts on odd values
   uint32_t frames = 1; ///< Number of Frames (0028,0008), 1 when absent
 
