@@ -329,6 +329,12 @@ private:
       case Tag(0x0028, 0x0102):
         this->Layout.highBit = us();
         break;
+      case Tag(0x0028, 0x0103):
+        this->Layout.pixelRepresentation = us();
+        break;
+      case Tag(0x0028, 0x0004):
+        this->Layout.photometric = this->Text(value, std::min<size_t>(length, 16));
+        break;
       case Tag(0x0008, 0x0010):
         this->Layout.recognitionCode = this->Text(value, std::min<size_t>(length, 64));
         break;
@@ -424,6 +430,16 @@ void CheckPixelDataSize(const DICOMLayout& layout, const std::string& path, uint
   if (layout.samplesPerPixel != 1)
   {
     throw InputError(path, "Samples per Pixel (0028,0002) = " + std::to_string(layout.samplesPerPixel) + ": not a grey-scale image");
+  }
+  if (layout.photometric != "MONOCHROME1" && layout.photometric != "MONOCHROME2")
+  {
+    throw InputError(path, "Photometric Interpretation (0028,0004) = '" + layout.photometric +
+        "': expected a grey-scale image (MONOCHROME1 or MONOCHROME2)");
+  }
+  if (layout.pixelRepresentation > 1)
+  {
+    throw InputError(path, "Pixel Representation (0028,0103) = " + std::to_string(layout.pixelRepresentation) +
+        ": expected 0 (unsigned) or 1 (signed)");
   }
   const std::string& code = layout.recognitionCode;
   if (!code.empty() && code.rfind("ACR-NEMA", 0) != 0 && code.rfind("ACRNEMA", 0) != 0 && code.rfind("MIPS 2.0", 0) != 0)

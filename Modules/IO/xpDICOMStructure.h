@@ -27,6 +27,8 @@ struct DICOMLayout
   // Top-level Image Pixel attributes (0 when absent).
   uint32_t rows = 0, columns = 0, bitsAllocated = 0, bitsStored = 0, highBit = 0;
   uint32_t samplesPerPixel = 1; ///< (0028,0002), 1 when absent
+  uint32_t pixelRepresentation = 0; ///< (0028,0103)
+  std::string photometric;          ///< (0028,0004)
   std::string recognitionCode; ///< (0008,0010), retired ACR-NEMA; GDCM asserts on odd values
   uint32_t frames = 1; ///< Number of Frames (0028,0008), 1 when absent
 
@@ -49,7 +51,8 @@ DICOMLayout CheckDICOMStructure(const std::string& path);
 /**
  * Checks the image attributes of a walked file before GDCM decodes it: Rows and Columns present
  * and within `maxPixels`, Bits Allocated 8, 16 or 32 (GDCM asserts on others), Bits Stored and
- * High Bit consistent with it, and native pixel data at least as long as they need (GDCM pads
+ * High Bit consistent with it, one sample of MONOCHROME1/2 (GDCM asserts on palettes without
+ * their tables), Pixel Representation 0 or 1, and native pixel data at least as long as they need (GDCM pads
  * short pixel data silently). Throws xp::InputError naming the file and field.
  */
 void CheckPixelDataSize(const DICOMLayout& layout, const std::string& path, uint64_t maxPixels);
