@@ -160,6 +160,10 @@ void StagedOutputDirectory::CheckWritable(const std::string& directory)
   struct stat status;
   while (stat(existing.c_str(), &status) != 0)
   {
+    if (existing == "." || existing == "/")
+    {
+      throw InputError(directory, "no part of the path exists, not even the working folder");
+    }
     const size_t slash = existing.find_last_of('/', existing.size() > 1 ? existing.size() - 2 : 0);
     existing = slash == std::string::npos ? "." : (slash == 0 ? "/" : existing.substr(0, slash));
   }
