@@ -125,3 +125,16 @@ TEST(Pose, ParametersRoundTripInTheOrderOfThePoseOption)
   EXPECT_EQ(p[5], 6.0) << "yaw";
   EXPECT_EQ(xp::Pose::FromParameters(p.data()).roll, 5.0);
 }
+
+TEST(Pose, RotationAngleIsTheWholeTurnAboutItsOwnAxis)
+{
+  xp::Pose pose;
+  EXPECT_NEAR(pose.RotationAngle(), 0.0, 1e-12);
+  pose.yaw = -7.0;
+  EXPECT_NEAR(pose.RotationAngle(), 7.0, 1e-9) << "an angle, never negative";
+  // 3 and 4 degrees about two axes turn about 5 degrees in all: more than either limit per axis.
+  pose.yaw = 0.0;
+  pose.pitch = 3.0;
+  pose.roll = 4.0;
+  EXPECT_NEAR(pose.RotationAngle(), 5.0, 0.01);
+}
