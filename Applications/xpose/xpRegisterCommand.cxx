@@ -120,8 +120,6 @@ void CheckRegisterOptions(const RegisterOptions& options)
   CheckLimit(options.maxEvaluations, 10, 100000, "--max-evaluations");
   CheckLimit(options.maxTranslation, 0.1, 500.0, "--max-translation");
   CheckLimit(options.maxRotation, 0.1, 180.0, "--max-rotation");
-  CheckLimit(options.minExplained, 0.0, 1.0, "minimum explained information");
-  CheckLimit(options.maxViewResidual, 0.01, 100.0, "maximum view residual");
 }
 
 int RunRegister(const RegisterOptions& options)

@@ -205,7 +205,7 @@ private:
     {
       if (tag == PixelDataTag)
       {
-        this->Layout.hasPixelData = depth == 0 || this->Layout.hasPixelData;
+        this->Layout.hasPixelData = this->Layout.hasPixelData || depth == 0;
         return this->Items(value, end, depth + 1, true, true);
       }
       return this->Items(value, end, depth + 1, true, false);
@@ -232,8 +232,7 @@ private:
   {
     // A data set holds each tag once, in ascending order. GDCM keeps the first of repeated
     // tags, so a repeat could show it other values than this walk checked.
-    uint32_t previous = 0;
-    bool first = true;
+    uint32_t previous = 0; // no data element has tag (0000,0000)
     while (pos < end)
     {
       if (end - pos >= 8 && this->TagAt(pos) == ItemEndTag)
@@ -245,11 +244,10 @@ private:
         return pos + 8;
       }
       const uint32_t tag = end - pos >= 4 ? this->TagAt(pos) : 0;
-      if (!first && tag <= previous)
+      if (tag <= previous)
       {
         this->Fail(pos, tag, "is out of order or repeated (after " + TagText(previous) + ")");
       }
-      first = false;
       previous = tag;
       pos = this->Element(pos, end, depth);
     }

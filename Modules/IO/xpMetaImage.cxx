@@ -145,7 +145,8 @@ std::vector<char> Inflate(const std::vector<char>& compressed, uint64_t expected
     }
   }
   inflateEnd(&stream);
-  if (status != Z_STREAM_END && status != Z_OK)
+  // Z_BUF_ERROR: no progress was possible, the input ended first.
+  if (status != Z_STREAM_END && status != Z_OK && status != Z_BUF_ERROR)
   {
     throw InputError(path, std::string("compressed data is corrupt (zlib: ") + (stream.msg ? stream.msg : "error") + ")");
   }
@@ -242,9 +243,20 @@ CTVolume ReadMetaImage(const std::string& path)
     dataPath = dataFile[0] == '/' || slash == std::string::npos ? dataFile : path.substr(0, slash + 1) + dataFile;
     offset = 0;
   }
-  const uint64_t available = FileSize(dataPath) > offset ? FileSize(dataPath) - offset : 0;
   const bool compressed = Flag(text, "CompressedData", path);
   const uint64_t expected = header.DataBytes();
+  if (dataPath != path && !field("HeaderSize").empty())
+  {
+    // A data file with a header of its own: skip HeaderSize bytes, or (-1) take its last bytes.
+    const std::vector<double> skip = Numbers(text, "HeaderSize", 1, path);
+    if (skip[0] == -1 && !compressed)
+      offset = FileSize(dataPath) > expected ? FileSize(dataPath) - expected : 0;
+    else if (skip[0] >= 0 && skip[0] == std::floor(skip[0]) && skip[0] < 1e12)
+      offset = static_cast<uint64_t>(skip[0]);
+    else
+      throw InputError(path, "HeaderSize: expected a whole number of bytes, or -1 for uncompressed data");
+  }
+  const uint64_t available = FileSize(dataPath) > offset ? FileSize(dataPath) - offset : 0;
   if (!compressed && available != expected)
   {
     throw InputError(dataPath, "holds " + std::to_string(available) + " bytes of voxel data; DimSize x ElementType (" +

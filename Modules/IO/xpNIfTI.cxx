@@ -227,7 +227,8 @@ CTVolume ReadNIfTI(const std::string& path)
   const uint64_t onDisk = FileSize(path);
   const bool compressed = gzdirect(file.get()) == 0;
   const uint64_t offset = static_cast<uint64_t>(h.voxOffset);
-  if ((!compressed && onDisk < offset + expected) || (compressed && expected / 1032 > onDisk + 64))
+  // Deflate compresses at most about 1032:1, so a small .nii.gz cannot hold a large volume.
+  if ((!compressed && onDisk < offset + expected) || (compressed && (offset + expected) / 1032 > onDisk + 64))
   {
     throw InputError(path, "holds too little data for dim x datatype (" + std::to_string(expected) +
         " bytes of voxels): truncated file or wrong dim");

@@ -595,7 +595,11 @@ TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
 
 TEST(Commands, NonFiniteOrNegativeGateLimitsAreRefused)
 {
-  const xp::RegisterOptions good = RegisterSimulated("cmd-no-such", "cmd-reg-limits");
+  // Real X-rays: without the checks these would register (exit 0 or 3), not exit 2.
+  ASSERT_EQ(std::system("rm -rf cmd-limits-sim cmd-reg-limits"), 0);
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "2,1,0,0,0,0", 10.0, false, "cmd-limits-sim");
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  const xp::RegisterOptions good = RegisterSimulated("cmd-limits-sim", "cmd-reg-limits");
   for (const auto& [translation, rotation] : { std::make_pair(std::nan(""), 10.0), std::make_pair(50.0, std::nan("")),
          std::make_pair(-1.0, 10.0), std::make_pair(50.0, -2.0), std::make_pair(HUGE_VAL, 10.0) })
   {
@@ -669,12 +673,15 @@ TEST(Commands, WorkBeyondReasonAndClampedOptionsAreRefused)
   drr.stepSize = std::nan("");
   EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitBadInput);
   EXPECT_FALSE(Exists("cmd-step"));
-  xp::MaskOptions mask;
-  mask.xray = "cmd-no-such.png";
+  drr.stepSize = 0.0;
+  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
+  xp::MaskOptions mask; // a real X-ray: without the checks the filter would clamp and succeed
+  mask.xray = "cmd-step/drr_A.png";
   mask.outputDirectory = "cmd-mask-window";
   mask.window = 100;
   EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(mask); }), xp::ExitBadInput);
   mask.window = 7;
   mask.binWidth = 0;
   EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(mask); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-mask-window"));
 }

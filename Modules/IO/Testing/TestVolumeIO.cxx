@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <zlib.h>
 #include <sys/stat.h>
 #include <vtkImageData.h>
 #include <vtkMatrix4x4.h>
@@ -78,6 +79,35 @@ TEST(VolumeIO, NIfTIIsConvertedFromRASToLPS)
   EXPECT_NEAR(p[1], -(6.0 + 1.5), 1e-6);
   EXPECT_NEAR(p[2], 7.0 + 2.0, 1e-6);
   EXPECT_EQ(ct.image->GetScalarComponentAsDouble(2, 1, 1, 0), (2 + 4 + 12) - 1000);
+}
+
+TEST(VolumeIO, MetaImageCompressedOrBesideItsHeaderIsReadAndRefusedWhenCut)
+{
+  const std::string dir = FreshFolder("mha-zlib");
+  std::vector<short> voxels(4 * 3 * 2);
+  for (size_t i = 0; i < voxels.size(); ++i)
+    voxels[i] = static_cast<short>(10 * i - 1000);
+  std::vector<Bytef> packed(compressBound(voxels.size() * 2));
+  uLongf packedSize = packed.size();
+  ASSERT_EQ(compress2(packed.data(), &packedSize, reinterpret_cast<const Bytef*>(voxels.data()), voxels.size() * 2, 9), Z_OK);
+  const std::string header = "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\nElementSpacing = 1 1 2\n"
+                             "ElementType = MET_SHORT\n";
+  const auto write = [&](const std::string& name, const std::string& text, size_t bytes) {
+    std::ofstream out(dir + "/" + name, std::ios::binary);
+    out << text;
+    out.write(reinterpret_cast<const char*>(packed.data()), static_cast<std::streamsize>(bytes));
+  };
+  write("ct.mha", header + "CompressedData = True\nElementDataFile = LOCAL\n", packedSize);
+  EXPECT_EQ(xp::ReadCTVolume(dir + "/ct.mha").image->GetScalarComponentAsDouble(3, 2, 1, 0), 10 * 23 - 1000);
+  write("cut.mha", header + "CompressedData = True\nElementDataFile = LOCAL\n", packedSize - 6);
+  EXPECT_THROW(xp::ReadCTVolume(dir + "/cut.mha"), xp::InputError);
+  // Raw data in a file of its own, after a 16-byte header of that file's own.
+  std::ofstream(dir + "/ct.mhd") << header << "HeaderSize = 16\nElementDataFile = ct.raw\n";
+  std::ofstream raw(dir + "/ct.raw", std::ios::binary);
+  raw << std::string(16, 'h');
+  raw.write(reinterpret_cast<const char*>(voxels.data()), static_cast<std::streamsize>(voxels.size() * 2));
+  raw.close();
+  EXPECT_EQ(xp::ReadCTVolume(dir + "/ct.mhd").image->GetScalarComponentAsDouble(1, 0, 0, 0), -990);
 }
 
 TEST(VolumeIO, UnknownPathsAreRefused)
