@@ -9,6 +9,7 @@ packages=(
   libvtk9-dev libvtkgdcm-dev libgdcm-dev      # VTK 9.1 and GDCM with its VTK bridge
   libeigen3-dev libnlopt-cxx-dev libopencv-dev libcli11-dev
   libgtest-dev libbenchmark-dev
+  libxrl-dev                                  # xraylib: X-ray cross sections for the simulator
   xvfb xauth                                  # off-screen rendering tests on a virtual display
 )
 sudo=""

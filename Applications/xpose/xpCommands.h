@@ -81,6 +81,8 @@ struct SimulateOptions
   double noise = 0.0;               ///< quantum noise, 12-bit grey levels (sd) at full transmission
   bool kvContrast = false;          ///< a different attenuation model than the DRR's
   bool addObjects = false;          ///< a couch rail and a frame corner only the X-ray shows
+  std::string preset = "model";     ///< model (the DRR's own image model) | clinical (physics simulator)
+  std::vector<std::string> without; ///< clinical: effects turned off (xp::PhysicsEffects())
   unsigned seed = 1;
   int threads = 0;
   std::string outputDirectory;
@@ -97,6 +99,7 @@ struct RegisterOptions
   std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
   std::string isocenterInCT;
   double muWater = 0.0193;
+  bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
   int bins = 32;
   int maxEvaluations = 400;
   double maxTranslation = 50.0;     ///< quality gate: largest correction accepted (mm)
@@ -125,7 +128,13 @@ struct EvaluateOptions
   double maxRotation = 5.0;         ///< each angle drawn in [-max, max] degrees
   unsigned seed = 1;
   std::string size;                 ///< registration resolution COLSxROWS (default: the panel's)
-  std::string scenario = "noisy";   ///< clean | noisy | objects | truncated
+  std::string scenario = "noisy";   ///< clean | noisy | objects | truncated | clinical
+  std::vector<std::string> without; ///< clinical: effects turned off (physics effects, "truncation")
+  bool removeTable = true;          ///< register against the CT without its table
+  /** Registration steps switched off, to measure what each does: levels, high-pass, coverage. */
+  std::vector<std::string> registrationOff;
+  double highPassMM = -1.0;         ///< the refinement's high-pass (mm on the panel); < 0: the default
+  double coverageMarginMM = -1.0;   ///< the coverage mask's margin (mm); < 0: the default
   std::vector<std::string> approaches{ "A", "B" };
   double noise = 30.0;              ///< quantum noise of the noisy scenarios, grey levels
   double successMTRE = 1.0;         ///< mm

@@ -1,9 +1,11 @@
 #include "xpCommands.h"
 #include "xpRegistrationInputs.h"
 #include "xpEvaluation.h"
-#include "xpXRaySimulator.h"
+#include "xpModelXRaySimulator.h"
+#include "xpXRayPhysics.h"
 
 #include "xpAttenuationVolume.h"
+#include "xpBodyMask.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
 #include "xpStereoGeometry.h"
@@ -129,7 +131,15 @@ std::string CanonicalPath(const std::string& path)
   return error ? path : canonical.string();
 }
 
-std::string SettingsText(const EvaluateOptions& o, const std::string& size)
+std::string Joined(const std::vector<std::string>& items)
+{
+  std::string text;
+  for (const std::string& item : items)
+    text += (text.empty() ? "" : ",") + item;
+  return text;
+}
+
+std::string SettingsText(const EvaluateOptions& o, const std::string& size, const std::string& model)
 {
   std::ostringstream text;
   text.precision(10);
@@ -138,6 +148,9 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size)
        << "\",\n  \"scenario\": \"" << o.scenario << "\",\n  \"size\": \"" << size << "\",\n  \"seed\": " << o.seed
        << ",\n  \"min_translation_mm\": " << o.minTranslation << ",\n  \"max_translation_mm\": " << o.maxTranslation
        << ",\n  \"max_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise
+       << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
+       << ",\n  \"high_pass_mm\": " << o.highPassMM << ",\n  \"coverage_margin_mm\": " << o.coverageMarginMM
+       << ",\n  \"remove_table\": " << (o.removeTable && o.scenario == "clinical" ? "true" : "false") << ",\n  \"x_rays\": " << model
        << ",\n  \"success_mtre_mm\": " << o.successMTRE << ",\n  \"target_region\": \"CT voxels above " << TargetHU
        << " HU within " << TargetRadius << " mm of the isocentre\"\n}\n";
   return text.str();
@@ -168,10 +181,26 @@ std::string ReadWhole(const std::string& path)
 int RunEvaluate(const EvaluateOptions& options)
 {
   UseThreads(options.threads);
-  const std::set<std::string> scenarios{ "clean", "noisy", "objects", "truncated" };
+  const std::set<std::string> scenarios{ "clean", "noisy", "objects", "truncated", "clinical" };
   if (!scenarios.count(options.scenario))
   {
-    throw InputError("--scenario", "expected clean, noisy, objects or truncated, got '" + options.scenario + "'");
+    throw InputError("--scenario", "expected clean, noisy, objects, truncated or clinical, got '" + options.scenario + "'");
+  }
+  const bool clinical = options.scenario == "clinical";
+  if (!clinical && !options.without.empty())
+  {
+    throw InputError("--without", "switches off effects of the clinical scenario");
+  }
+  // The clinical scenario: the physics simulator with every effect on, and a planning CT shorter
+  // than the CT the X-rays are made from, each of which --without can switch off.
+  XRayPhysicsSettings physicsSettings = XRayPhysicsSettings::Clinical();
+  bool truncation = clinical;
+  for (const std::string& effect : options.without)
+  {
+    if (effect == "truncation")
+      truncation = false;
+    else
+      SwitchOff(physicsSettings, effect, "--without");
   }
   if (options.trials < 1)
   {
@@ -194,6 +223,30 @@ int RunEvaluate(const EvaluateOptions& options)
       throw InputError("--approaches", "expected A (whole image) and/or B (entropy masks), got '" + approach + "'");
   }
 
+  StereoRegistrationSettings registrationSettings;
+  for (const std::string& step : options.registrationOff)
+  {
+    if (step == "levels")
+      registrationSettings.equalizedLevels = false;
+    else if (step == "high-pass")
+      registrationSettings.fineHighPassMM = 0.0;
+    else if (step == "coverage")
+      registrationSettings.coverageMask = false;
+    else
+      throw InputError("--registration-off", "expected levels, high-pass or coverage, got '" + step + "'");
+  }
+
+  if (options.highPassMM >= 0.0)
+  {
+    CheckLimit(options.highPassMM, 0.0, 500.0, "--high-pass-mm");
+    registrationSettings.fineHighPassMM = options.highPassMM;
+  }
+  if (options.coverageMarginMM >= 0.0)
+  {
+    CheckLimit(options.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");
+    registrationSettings.coverageMarginMM = options.coverageMarginMM;
+  }
+
   // --- inputs, read once for every trial ---
   const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
   ValidateStereoGeometry(geometry, options.geometry);
@@ -209,10 +262,23 @@ int RunEvaluate(const EvaluateOptions& options)
   simulation.noise = options.scenario == "clean" ? 0.0 : options.noise;
   simulation.kvContrast = options.scenario != "clean";
   simulation.addObjects = options.scenario == "objects";
-  XRaySimulator simulator(ct.image, position, isoInCT, roomIso, simulation);
-  // Truncated: the X-rays see the whole patient, the registration a planning CT of half its length.
-  const vtkSmartPointer<vtkImageData> registrationCT =
-    options.scenario == "truncated" ? CropSlices(ct.image, 0.5) : vtkSmartPointer<vtkImageData>(ct.image);
+  std::unique_ptr<XRaySimulator> ownModel;
+  std::unique_ptr<XRayPhysicsSimulator> physics;
+  if (clinical)
+    physics = std::make_unique<XRayPhysicsSimulator>(ct.image, planned, roomIso, physicsSettings);
+  else
+    ownModel = std::make_unique<XRaySimulator>(ct.image, position, isoInCT, roomIso, simulation);
+  // Truncated: the X-rays see the whole patient, the registration a planning CT of half its
+  // length; clinical: of 80 % of its length.
+  vtkSmartPointer<vtkImageData> registrationCT = ct.image;
+  if (options.scenario == "truncated")
+    registrationCT = CropSlices(ct.image, 0.5);
+  else if (truncation)
+    registrationCT = CropSlices(ct.image, 0.8);
+  // The simulated room has no CT table: in the clinical scenario the registration leaves it out
+  // too, unless --keep-table. The DRR-model scenarios' X-rays show the table.
+  if (clinical && options.removeTable)
+    registrationCT = BodyOnly(registrationCT);
   const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(registrationCT, 0.0193);
   const std::vector<Eigen::Vector3d> targets = TargetPoints(ct.image, isoInCT, planned);
 
@@ -223,7 +289,16 @@ int RunEvaluate(const EvaluateOptions& options)
     throw InputError(directory, "cannot create the output folder");
   }
   const std::string settingsPath = directory + "/evaluation.json", csvPath = directory + "/trials.csv";
-  const std::string settings = SettingsText(options, size);
+  std::string model = "\"the DRR model (xpModelXRaySimulator.h)\"";
+  if (clinical)
+  {
+    std::string off;
+    for (const std::string& effect : options.without)
+      off += (off.empty() ? "\"" : ", \"") + effect + "\"";
+    model = "{ \"simulator\": \"physics (xpXRayPhysics.h)\", \"planning_ct_cut_to\": " +
+      std::string(truncation ? "0.8" : "1") + ", \"without\": [" + off + "], \"settings\": " + physicsSettings.Describe() + " }";
+  }
+  const std::string settings = SettingsText(options, size, model);
   std::vector<TrialRecord> records = ReadTrialCSV(csvPath);
   struct stat info;
   if (stat(settingsPath.c_str(), &info) == 0 && ReadWhole(settingsPath) != settings)
@@ -270,13 +345,21 @@ int RunEvaluate(const EvaluateOptions& options)
         {
           RegistrationView item;
           item.view = panel.Resampled(panel.Columns() / factor, panel.Rows() / factor);
-          const std::vector<uint16_t> xray = simulator.Simulate(panel, truth, random);
-          item.xray = factor > 1 ? ShrinkImage(xray, panel.Columns(), factor) : xray;
+          if (physics)
+          {
+            // Rendered at the registration size: its rays spread over each (binned) pixel's area.
+            item.xray = physics->Simulate(item.view, truth, random);
+          }
+          else
+          {
+            const std::vector<uint16_t> xray = ownModel->Simulate(panel, truth, random);
+            item.xray = factor > 1 ? ShrinkImage(xray, panel.Columns(), factor) : xray;
+          }
           views.push_back(std::move(item));
         }
         simulated = true;
       }
-      StereoRegistrationSettings settingsOfApproach;
+      StereoRegistrationSettings settingsOfApproach = registrationSettings;
       settingsOfApproach.entropyMask = approach == "B";
       const Clock::time_point registrationStart = Clock::now();
       const StereoRegistrationResult result = RegisterStereo(*volume, planned, roomIso, views, settingsOfApproach);

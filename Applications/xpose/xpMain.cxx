@@ -66,6 +66,11 @@ int main(int argc, char** argv)
   simulateCommand->add_option("--noise", simulate.noise, "Quantum noise sd in grey levels at full transmission");
   simulateCommand->add_flag("--kv-contrast", simulate.kvContrast, "Bone attenuates more than in the DRR model");
   simulateCommand->add_flag("--add-objects", simulate.addObjects, "Add a couch rail and a frame only the X-ray shows");
+  simulateCommand->add_option("--preset", simulate.preset,
+    "model: the DRR's own image model; clinical: the physics simulator, every effect on")->capture_default_str();
+  simulateCommand->add_option("--without", simulate.without,
+    "Clinical effects to switch off: spectrum, pixel-area, table, couch, scatter, blur, quantum-noise, "
+    "electronic-noise, heel, log")->delimiter(',');
   simulateCommand->add_option("--seed", simulate.seed, "Noise seed")->capture_default_str();
   simulateCommand->add_option("--threads", simulate.threads, "Threads (0: all cores)");
   simulateCommand->add_option("--out-dir", simulate.outputDirectory, "Output folder")->required();
@@ -80,6 +85,8 @@ int main(int argc, char** argv)
   registerCommand->add_flag("!--no-entropy-mask", reg.entropyMask, "Register the whole image (no entropy mask)");
   registerCommand->add_option("--size", reg.size, "Registration resolution COLSxROWS (divides the panel)");
   registerCommand->add_option("--iso-ct", reg.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  registerCommand->add_flag("--remove-table", reg.removeTable,
+    "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
   registerCommand->add_option("--bins", reg.bins, "MI histogram bins")->capture_default_str();
   registerCommand->add_option("--max-evaluations", reg.maxEvaluations, "6-DOF evaluation limit")->capture_default_str();
   registerCommand->add_option("--max-translation", reg.maxTranslation, "Largest accepted correction, mm")->capture_default_str();
@@ -108,7 +115,14 @@ int main(int argc, char** argv)
     ->capture_default_str();
   evaluateCommand->add_option("--seed", evaluate.seed, "Seed of the trials and the noise")->capture_default_str();
   evaluateCommand->add_option("--size", evaluate.size, "Registration resolution COLSxROWS (divides the panel)");
-  evaluateCommand->add_option("--scenario", evaluate.scenario, "clean, noisy, objects or truncated")->capture_default_str();
+  evaluateCommand->add_option("--scenario", evaluate.scenario,
+    "clean, noisy, objects, truncated (the DRR model's X-rays) or clinical (the physics simulator)")->capture_default_str();
+  evaluateCommand->add_option("--without", evaluate.without,
+    "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
+  evaluateCommand->add_flag("!--keep-table", evaluate.removeTable, "Register against the CT with its table");
+  evaluateCommand->add_option("--registration-off", evaluate.registrationOff,
+    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage")
+    ->delimiter(',');
   evaluateCommand->add_option("--approaches", evaluate.approaches, "A (whole image) and/or B (entropy masks)")
     ->capture_default_str();
   evaluateCommand->add_option("--noise", evaluate.noise, "Quantum noise of the noisy scenarios")->capture_default_str();

@@ -1,6 +1,8 @@
 #include "xpCommands.h"
 #include "xpRegistrationInputs.h"
 
+#include "xpBodyMask.h"
+
 #include "vtkXPDRRFilter.h"
 
 #include "xpAttenuationVolume.h"
@@ -66,6 +68,12 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
   RegistrationInputs inputs;
   inputs.setup = MakeDRRSetup(options.ct, options.series, options.geometry, options.isocenterInCT, options.muWater,
     "trilinear", 0.0);
+  if (options.removeTable)
+  {
+    // The CT's table is not the treatment couch: render from the body alone.
+    inputs.setup.ct.image = BodyOnly(inputs.setup.ct.image, {}, &inputs.tableVoxelsRemoved);
+    inputs.setup.filter->SetInputData(inputs.setup.ct.image);
+  }
   const DRRSetup& setup = inputs.setup;
   ValidateStereoGeometry(setup.geometry, options.geometry);
   const std::vector<XRayView>& panels = setup.geometry.views;
@@ -141,6 +149,8 @@ int RunRegister(const RegisterOptions& options)
   const double readSeconds = Since(start);
   std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), views.size(),
     views[0].view.Columns(), views[0].view.Rows(), readSeconds);
+  if (options.removeTable)
+    std::printf("table: %lld voxels outside the body set to air\n", inputs.tableVoxelsRemoved);
 
   // --- the method (Modules/Registration) ---
   const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(setup.ct.image, options.muWater);
@@ -205,6 +215,7 @@ int RunRegister(const RegisterOptions& options)
     json << (v ? ", " : "") << absolute(options.rois[v]);
   json << "], \"size\": " << JsonString(options.size) << ", \"iso_ct\": " << JsonString(options.isocenterInCT)
        << ", \"mu_water\": " << options.muWater << ", \"entropy_mask\": " << (options.entropyMask ? "true" : "false")
+       << ", \"remove_table\": " << (options.removeTable ? "true" : "false")
        << "},\n  \"convergence\": {\"stages\": [";
   for (size_t n = 0; n < result.stages.size(); ++n)
     json << (n ? ", " : "") << "{\"name\": " << JsonString(result.stages[n].name)

@@ -20,6 +20,7 @@ struct RegistrationInputs
   std::vector<RegistrationView> views;    ///< X-rays at the registration size, user ROIs in `mask`
   Eigen::Vector3d isoInCT = Eigen::Vector3d::Zero();
   Eigen::Isometry3d planned = Eigen::Isometry3d::Identity(); ///< CT (LPS) -> Room, planned set-up
+  long long tableVoxelsRemoved = 0;       ///< with --remove-table: voxels outside the body set to air
 };
 
 /**

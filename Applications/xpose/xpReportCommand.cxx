@@ -145,6 +145,7 @@ int RunReport(const ReportOptions& options)
   inputsOf.isocenterInCT = result.Text("inputs.iso_ct");
   inputsOf.muWater = result.Number("inputs.mu_water");
   const bool entropyMask = result.Bool("inputs.entropy_mask");
+  inputsOf.removeTable = result.Bool("inputs.remove_table");
   // The report shows the registered X-rays: a file changed since (or replaced) is refused.
   const std::vector<std::string> md5 = result.Texts("inputs.xray_md5");
   if (md5.size() != inputsOf.xrays.size())

@@ -1,5 +1,6 @@
 #include "xpCommands.h"
-#include "xpXRaySimulator.h"
+#include "xpModelXRaySimulator.h"
+#include "xpXRayPhysics.h"
 
 #include "xpError.h"
 #include "xpImageGeometry.h"
@@ -11,6 +12,9 @@
 
 #include <cstdio>
 #include <fstream>
+#include <functional>
+#include <memory>
+#include <sstream>
 #include <random>
 
 namespace xp
@@ -26,23 +30,59 @@ int RunSimulate(const SimulateOptions& options)
   {
     size = ParseSize(options.size, "--size");
   }
-  XRaySimulation simulation;
-  simulation.noise = options.noise;
-  simulation.kvContrast = options.kvContrast;
-  simulation.addObjects = options.addObjects;
+  const bool clinical = options.preset == "clinical";
+  if (!clinical && options.preset != "model")
+  {
+    throw InputError("--preset", "expected model or clinical, got '" + options.preset + "'");
+  }
+  if (clinical && (options.noise > 0.0 || options.kvContrast || options.addObjects))
+  {
+    throw InputError("--preset clinical", "models noise, bone contrast and the couch itself; --noise, --kv-contrast "
+                                          "and --add-objects belong to --preset model");
+  }
+  if (!clinical && !options.without.empty())
+  {
+    throw InputError("--without", "switches off effects of --preset clinical");
+  }
   const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
   const CTVolume ct = ReadCTVolume(options.ct, options.series);
   const Eigen::Vector3d isoInCT =
     options.isocenterInCT.empty() ? ImageCenter(ct.image) : ParsePoint(options.isocenterInCT, "--iso-ct");
-  XRaySimulator simulator(
-    ct.image, ParsePatientPosition(ct.patientPosition, options.ct), isoInCT, geometry.isocenter, simulation);
+  const PatientPosition position = ParsePatientPosition(ct.patientPosition, options.ct);
+  std::string model;
+  std::function<std::vector<uint16_t>(const XRayView&, std::mt19937&)> render;
+  std::unique_ptr<XRaySimulator> ownModel;
+  std::unique_ptr<XRayPhysicsSimulator> physics;
+  if (clinical)
+  {
+    XRayPhysicsSettings settings = XRayPhysicsSettings::Clinical();
+    for (const std::string& effect : options.without)
+      SwitchOff(settings, effect, "--without");
+    physics = std::make_unique<XRayPhysicsSimulator>(
+      ct.image, PlannedCTToRoom(position, isoInCT, geometry.isocenter), geometry.isocenter, settings);
+    render = [&](const XRayView& view, std::mt19937& random) { return physics->Simulate(view, pose, random); };
+    model = settings.Describe();
+  }
+  else
+  {
+    XRaySimulation simulation;
+    simulation.noise = options.noise;
+    simulation.kvContrast = options.kvContrast;
+    simulation.addObjects = options.addObjects;
+    ownModel = std::make_unique<XRaySimulator>(ct.image, position, isoInCT, geometry.isocenter, simulation);
+    render = [&](const XRayView& view, std::mt19937& random) { return ownModel->Simulate(view, pose, random); };
+    std::ostringstream text;
+    text << "{ \"noise\": " << options.noise << ", \"kv_contrast\": " << (options.kvContrast ? "true" : "false")
+         << ", \"add_objects\": " << (options.addObjects ? "true" : "false") << " }";
+    model = text.str();
+  }
 
   std::mt19937 random(options.seed);
   StagedOutputDirectory output(options.outputDirectory);
   for (const XRayView& panel : geometry.views)
   {
     const XRayView view = size.first > 0 ? panel.Resampled(size.first, size.second) : panel;
-    const std::vector<uint16_t> xray = simulator.Simulate(view, pose, random);
+    const std::vector<uint16_t> xray = render(view, random);
     WritePNG(ImageFromRowsTopFirst(xray, view.Columns(), view.Rows()), output.Path("xray_" + view.name + ".png"));
     std::printf("view %s: %dx%d simulated\n", view.name.c_str(), view.Columns(), view.Rows());
   }
@@ -51,8 +91,7 @@ int RunSimulate(const SimulateOptions& options)
         << ",\n  \"convention\": \"IEC 61217 fixed; p' = R(p - iso) + iso + t; R = Rz(yaw) Ry(roll) Rx(pitch)\""
         << ",\n  \"ct\": \"" << options.ct << "\",\n  \"geometry\": \"" << options.geometry << "\""
         << ",\n  \"size\": \"" << (options.size.empty() ? "panel" : options.size) << "\""
-        << ",\n  \"noise\": " << options.noise << ",\n  \"kv_contrast\": " << (options.kvContrast ? "true" : "false")
-        << ",\n  \"add_objects\": " << (options.addObjects ? "true" : "false") << ",\n  \"seed\": " << options.seed
+        << ",\n  \"preset\": \"" << options.preset << "\",\n  \"model\": " << model << ",\n  \"seed\": " << options.seed
         << "\n}\n";
   truth.close();
   if (!truth)

@@ -169,7 +169,7 @@ PreAlignmentResult PreAlign(StereoSimilarity& similarity, const Pose& start, con
     std::vector<Motion2D> motions;
     for (size_t v = 0; v < items.size(); ++v)
     {
-      motions.push_back(Register2D(items[v].xray, similarity.LastDRR(v), items[v].view.Columns(), items[v].view.Rows(),
+      motions.push_back(Register2D(similarity.XRayLevels(v), similarity.LastDRRLevels(v), items[v].view.Columns(), items[v].view.Rows(),
         items[v].view.Project(isocenter), items[v].mask.empty() ? nullptr : items[v].mask.data()));
     }
     const Pose update = InverseProjection(views, motions, isocenter);

@@ -1,5 +1,6 @@
 #include "xpStereoRegistration.h"
 
+#include "xpCTCoverage.h"
 #include "xpError.h"
 #include "xpPoseOptimizer.h"
 
@@ -168,14 +169,15 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   std::vector<RegistrationView> coarseViews;
   for (const RegistrationView& item : views)
     coarseViews.push_back(pyramid ? Half(item) : item);
-  StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins);
+  StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins, { settings.equalizedLevels, 0.0 });
   result.prealignment = PreAlign(coarse, Pose{}, isocenter);
   result.drrCount += coarse.RenderedDRRs();
   result.prealignSeconds = Since(start);
 
-  // 2. Entropy masks AND ROIs, transferred into the DRR planes.
+  // 2. Entropy masks AND ROIs AND the CT's coverage, transferred into the DRR planes.
   start = Clock::now();
   std::vector<RegistrationView> masked = views;
+  const Eigen::Isometry3d prealignedCTToRoom = MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter);
   for (size_t v = 0; v < views.size(); ++v)
   {
     const RegistrationView& item = views[v];
@@ -192,6 +194,12 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       mask = roi ? item.mask : std::vector<uint8_t>(item.xray.size(), 1);
     }
     masked[v].mask = TransferMask(mask, item.view, item.view);
+    if (settings.coverageMask)
+    {
+      const std::vector<uint8_t> covered = CTCoverageMask(volume, prealignedCTToRoom, item.view, settings.coverageMarginMM);
+      for (size_t i = 0; i < covered.size(); ++i)
+        masked[v].mask[i] &= covered[i];
+    }
     const long long valid = std::count(masked[v].mask.begin(), masked[v].mask.end(), 1);
     if (valid == 0)
     {
@@ -224,7 +232,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     std::vector<RegistrationView> coarseSearch;
     for (const RegistrationView& item : masked)
       coarseSearch.push_back(pyramid ? Half(item) : item);
-    StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins);
+    StereoSimilarity searchSimilarity(
+      coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins, { settings.equalizedLevels, 0.0 });
     PoseOptimizerSettings searchSettings = fineSettings;
     searchSettings.initialStepMM = 2.0;
     searchSettings.initialStepDegrees = 1.0;
@@ -264,7 +273,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // Each remaining end is refined at full resolution, where a stall on the half-size images'
   // flatter valley floor comes back or shows its lower objective: only ends that stay apart
   // there and are equally good within ambiguousObjectiveRatio mean the images do not fix the pose.
-  StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins);
+  StereoSimilarity fine(
+    volume, plannedCTToRoom, isocenter, masked, settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
   std::vector<PoseOptimizerResult> refined;
   for (size_t e = 0; e < searchEnds.size(); ++e)
   {
@@ -314,7 +324,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     result.drrs.push_back(fine.LastDRR(v));
     result.masks.push_back(item.mask);
     // How much of the X-ray's information the final DRR explains, over the valid pixels.
-    histogram.Compute(item.xray.data(), fine.LastDRR(v).data(), static_cast<long long>(item.xray.size()),
+    histogram.Compute(fine.XRayLevels(v).data(), fine.LastDRRLevels(v).data(), static_cast<long long>(item.xray.size()),
       item.mask.data(), item.mask.data());
     const double explained = histogram.FixedEntropy() > 0 ? histogram.MutualInformation() / histogram.FixedEntropy() : 0.0;
     result.explained.push_back(explained);
@@ -331,7 +341,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
                "not cover what the X-ray shows; a ROI around the anatomy the CT covers can exclude the rest",
           100.0 * uncovered, 100.0 * settings.maxUncovered));
     // A view whose own 2D registration still wants to move disagrees with the 3D result.
-    const Motion2D residual = Register2D(item.xray, fine.LastDRR(v), item.view.Columns(), item.view.Rows(),
+    const Motion2D residual = Register2D(fine.XRayLevels(v), fine.LastDRRLevels(v), item.view.Columns(), item.view.Rows(),
       item.view.Project(isocenter), item.mask.data(), settings.bins);
     const double shiftMM = residual.shift.norm() * item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() /
       item.view.SourceToPanelDistance();

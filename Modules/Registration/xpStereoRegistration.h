@@ -26,6 +26,17 @@ struct StereoRegistrationSettings
    *  this (mm); coarser voxels blur the bone edges the coarse search follows. */
   double maxHalvedVoxelMM = 2.5;
   int bins = 32;                 ///< MI histogram bins
+  /** MI on equalised levels (xpStereoSimilarity.h); false: on 12-bit transmission as it is. */
+  bool equalizedLevels = true;
+  /** The full-resolution refinement removes shading wider than this (mm on the panel) from
+   *  both images' ranks (xpImageLevels.h): scatter, heel and couch shade an X-ray smoothly, and
+   *  MI would trade pose for shading. 0 = off. The coarse stages keep the shading, which helps
+   *  them travel. */
+  double fineHighPassMM = 20.0;
+  /** Pixels whose rays meet the CT's end faces inside the body see anatomy the CT does not
+   *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
+  bool coverageMask = true;
+  double coverageMarginMM = 4.0;
   int maxEvaluations = 400;      ///< per 6-DOF stage
   double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
   double maxRotation = 10.0;     ///< gate: and degrees

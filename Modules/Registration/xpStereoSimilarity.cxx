@@ -1,17 +1,23 @@
 #include "xpStereoSimilarity.h"
 
 #include "xpError.h"
+#include "xpImageLevels.h"
+
+#include <algorithm>
 
 namespace xp
 {
 
+
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins)
+  const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins, const SimilarityLevels& levels)
   : Volume(volume)
   , Planned(plannedCTToRoom)
   , Isocenter(roomIsocenter)
   , Items(std::move(views))
   , Histogram(bins)
+  , Equalize(levels.equalize)
+  , HighPassMM(levels.equalize ? levels.highPassSigmaMM : 0.0)
 {
   if (this->Items.empty())
   {
@@ -27,7 +33,23 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     this->Traced.emplace_back(item.view.Columns(), item.view.Rows(), item.mask.empty() ? nullptr : item.mask.data());
     this->Integrals.emplace_back(pixels);
     this->DRRs.emplace_back(pixels);
+    this->DRRRanks.emplace_back(pixels);
+    this->XRayRanks.push_back(this->Equalize ? EqualizedLevels(item.xray, item.mask) : std::vector<uint16_t>());
+    if (this->HighPassMM > 0.0)
+    {
+      // Ranks, less their shading, ranked again.
+      std::vector<float> structure(this->XRayRanks.back().begin(), this->XRayRanks.back().end());
+      const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
+      SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), this->HighPassMM / item.view.pixelSpacing[0]);
+      LevelTable table;
+      table.Build(structure.data(), mask, static_cast<long long>(pixels));
+      for (size_t i = 0; i < pixels; ++i)
+        this->XRayRanks.back()[i] = (mask && !mask[i]) ? 0 : table(structure[i]);
+    }
   }
+  this->IntegralLevels.resize(this->Items.size());
+  this->StructureLevels.resize(this->Items.size());
+  this->Structure.resize(this->Items.size());
   this->LastMI.assign(this->Items.size(), 0.0);
 }
 
@@ -43,12 +65,43 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
       this->Traced[v], this->Integrals[v].data());
     LineIntegralsTo12Bit(this->Integrals[v].data(), mask, count, this->DRRs[v].data());
-    this->Histogram.Compute(item.xray.data(), this->DRRs[v].data(), count, mask, mask);
+    if (this->Equalize)
+      this->RankDRR(v);
+    this->Histogram.Compute(this->XRayLevels(v).data(), this->LastDRRLevels(v).data(), count, mask, mask);
     this->LastMI[v] = this->Histogram.MutualInformation();
     objective += this->LastMI[v] * this->LastMI[v];
     ++this->DRRCount;
   }
   return objective;
+}
+
+void StereoSimilarity::RankDRR(size_t v)
+{
+  const RegistrationView& item = this->Items[v];
+  const std::vector<float>& integral = this->Integrals[v];
+  const long long count = static_cast<long long>(integral.size());
+  const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
+  // The distributions at the first pose evaluated fix the levels for every later pose.
+  LevelTable& levels = this->IntegralLevels[v];
+  if (levels.Empty())
+    levels.Build(integral.data(), mask, count);
+  uint16_t* out = this->DRRRanks[v].data();
+  if (this->HighPassMM <= 0.0)
+  {
+    for (long long i = 0; i < count; ++i)
+      out[i] = (mask && !mask[i]) ? 0 : levels(integral[i]);
+    return;
+  }
+  std::vector<float>& structure = this->Structure[v];
+  structure.resize(integral.size());
+  for (long long i = 0; i < count; ++i)
+    structure[i] = (mask && !mask[i]) ? 0.0f : levels(integral[i]);
+  SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), this->HighPassMM / item.view.pixelSpacing[0]);
+  LevelTable& structureLevels = this->StructureLevels[v];
+  if (structureLevels.Empty())
+    structureLevels.Build(structure.data(), mask, count);
+  for (long long i = 0; i < count; ++i)
+    out[i] = (mask && !mask[i]) ? 0 : structureLevels(structure[i]);
 }
 
 } // namespace xp

@@ -2,6 +2,13 @@
  * @file xpStereoSimilarity.h
  * @brief The 6-DOF objective of METHOD.md step 4: MI(X-ray A, DRR A(T))^2 + MI(X-ray B, DRR B(T))^2,
  *        rendering only the rays of valid pixels, into buffers kept between evaluations.
+ *
+ * Equalised levels (the default): MI bins each image by its own ranks over the valid pixels: the
+ * X-ray by its histogram, the DRR's line integrals by their distribution at the first pose
+ * evaluated. With a high-pass, each image's ranks less their wide low-pass are ranked again. The bins then hold equal shares of the anatomy whatever the X-ray's grey-level
+ * mapping (raw, logarithmic, processed) and however thick the patient is: with bins of equal width
+ * over 12-bit transmission, a pelvis seen obliquely (transmission below 1 %) falls into the
+ * first bin, and MI follows the faint body outline instead of the bone.
  */
 #ifndef xpStereoSimilarity_h
 #define xpStereoSimilarity_h
@@ -9,6 +16,7 @@
 #include "vtkXPRegistrationModule.h"
 
 #include "xpAttenuationVolume.h"
+#include "xpImageLevels.h"
 #include "xpMutualInformation.h"
 #include "xpPose.h"
 #include "xpRayCaster.h"
@@ -27,6 +35,13 @@ struct RegistrationView
   std::vector<uint8_t> mask;     ///< 1 = valid; empty = all valid
 };
 
+/** How MI sees the images (xpImageLevels.h). */
+struct SimilarityLevels
+{
+  bool equalize = true;          ///< ranks; false: 12-bit values as they are
+  double highPassSigmaMM = 0.0;  ///< with ranks: shading wider than this (mm on the panel) removed; 0 = kept
+};
+
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
 {
 public:
@@ -36,19 +51,26 @@ public:
    * @param roomIsocenter  centre of rotation of the poses (Room mm)
    */
   StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-    const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins = 64);
+    const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins = 64,
+    const SimilarityLevels& levels = {});
 
   /** The objective at a misalignment: sum over views of MI^2 (nats^2). Renders one DRR per view. */
   double Evaluate(const Pose& misalignment);
 
   /** MI per view of the last evaluation. */
   const std::vector<double>& LastMutualInformation() const { return this->LastMI; }
-  /** The 12-bit DRR of view v from the last evaluation (0 where masked). */
+  /** The 12-bit DRR (transmission) of view v from the last evaluation (0 where masked). */
   const std::vector<uint16_t>& LastDRR(size_t v) const { return this->DRRs[v]; }
+  /** The images as MI sees them: equalised levels, or the X-ray and the DRR as they are. */
+  const std::vector<uint16_t>& XRayLevels(size_t v) const { return this->Equalize ? this->XRayRanks[v] : this->Items[v].xray; }
+  const std::vector<uint16_t>& LastDRRLevels(size_t v) const { return this->Equalize ? this->DRRRanks[v] : this->DRRs[v]; }
   long long RenderedDRRs() const { return this->DRRCount; }
   const std::vector<RegistrationView>& Views() const { return this->Items; }
 
 private:
+  /** The last DRR's line integrals of view v as levels. */
+  void RankDRR(size_t v);
+
   const AttenuationVolume& Volume;
   Eigen::Isometry3d Planned;
   Eigen::Vector3d Isocenter;
@@ -57,6 +79,15 @@ private:
   std::vector<TracedPixels> Traced; ///< per view, built once: the mask is fixed
   std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
   std::vector<std::vector<uint16_t>> DRRs;
+  bool Equalize = true;
+  double HighPassMM = 0.0;
+  std::vector<std::vector<uint16_t>> XRayRanks;
+  std::vector<std::vector<uint16_t>> DRRRanks;
+  /** Per view, set at the first pose: line integral -> level, and (high-pass) structure -> level. */
+  std::vector<LevelTable> IntegralLevels;
+  std::vector<LevelTable> StructureLevels;
+  std::vector<std::vector<float>> Structure; ///< scratch of the high-pass
+
   std::vector<double> LastMI;
   long long DRRCount = 0;
 };

@@ -1,8 +1,10 @@
 // The 6-DOF objective and optimiser recover known misalignments of the head phantom from
 // simulated stereo X-rays, with the signs of GEOMETRY.md.
+#include "xpCTCoverage.h"
 #include "xpHeadPhantom.h"
 #include "xpPoseOptimizer.h"
 #include "xpReferenceGeometry.h"
+#include "xpStereoRegistration.h"
 #include "xpStereoSimilarity.h"
 
 #include <gtest/gtest.h>
@@ -327,21 +329,91 @@ TEST(StereoRegistrationGate, FailsWhenTheImagesDoNotFixThePose)
     << (result.reasons.empty() ? "no reasons" : result.reasons.front());
 }
 
-TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
+/** The head phantom's central 40 % of slices: a planning CT shorter than the X-rays' field. */
+xp::CTVolumeData CentralSlices(const xp::CTVolumeData& whole)
+{
+  xp::CTVolumeData central = whole;
+  const int slices = whole.dimensions[2], kept = slices * 2 / 5, first = (slices - kept) / 2;
+  const size_t sliceSize = static_cast<size_t>(whole.dimensions[0]) * whole.dimensions[1];
+  central.dimensions[2] = kept;
+  central.origin += whole.direction.col(2) * (first * whole.spacing[2]);
+  central.hounsfield.assign(whole.hounsfield.begin() + first * sliceSize, whole.hounsfield.begin() + (first + kept) * sliceSize);
+  return central;
+}
+
+TEST(CTCoverage, LeavesOutTheRaysThatCrossTheBodyBeyondTheEndSlices)
+{
+  const Scene full;
+  const Scene cropped(CentralSlices(full.ct));
+  const xp::XRayView view = StereoViews(160, 120)[0];
+  const std::vector<uint8_t> mask = xp::CTCoverageMask(cropped.volume, cropped.planned, view, 2.0);
+  // The panel's columns run along -Y (the CT's slice axis, HFS): the central rows are covered,
+  // the rows at the panel's ends (beyond the CT's slices, across the head) are not.
+  const auto validInRow = [&](const std::vector<uint8_t>& m, int row)
+  {
+    int n = 0;
+    for (int column = 0; column < 160; ++column)
+      n += m[row * 160 + column];
+    return n;
+  };
+  const int centre = validInRow(mask, 60);
+  EXPECT_EQ(centre, 160) << "rays through the CT's middle slices";
+  int leftOut = 0;
+  for (int row = 0; row < 120; ++row)
+    leftOut += validInRow(mask, row) < 160;
+  EXPECT_GT(leftOut, 20) << "rows across the head beyond the end slices";
+  // The whole CT covers what the cropped one does, and more.
+  const std::vector<uint8_t> whole = xp::CTCoverageMask(full.volume, full.planned, view, 2.0);
+  long long wholeValid = 0, croppedValid = 0;
+  for (size_t i = 0; i < mask.size(); ++i)
+  {
+    wholeValid += whole[i];
+    croppedValid += mask[i];
+    EXPECT_TRUE(!mask[i] || whole[i]);
+  }
+  EXPECT_GT(wholeValid, croppedValid);
+  // Moving the cropped CT 10 mm along Room -Y (the slice axis; rows run along -Y) moves the
+  // covered band about 6 rows down the panel (2.5 mm pixels, magnification 1.5).
+  xp::Pose shifted;
+  shifted.translation = Eigen::Vector3d(0, -10, 0);
+  const std::vector<uint8_t> moved = xp::CTCoverageMask(
+    cropped.volume, xp::MisalignedCTToRoom(cropped.planned, shifted, Eigen::Vector3d::Zero()), view, 2.0);
+  int firstBefore = -1, firstAfter = -1;
+  for (int row = 0; row < 120 && (firstBefore < 0 || firstAfter < 0); ++row)
+  {
+    if (firstBefore < 0 && validInRow(mask, row) == 160)
+      firstBefore = row;
+    if (firstAfter < 0 && validInRow(moved, row) == 160)
+      firstAfter = row;
+  }
+  EXPECT_GT(firstAfter, firstBefore + 3) << "the covered band follows the CT";
+}
+
+TEST(StereoRegistrationGate, ACTShorterThanTheFieldRegistersOnWhatItCovers)
 {
   // X-rays of the whole head, a planning CT of its central 40 % of slices (the evaluation's
-  // `truncated` case): the X-rays show anatomy the CT cannot explain at any pose.
+  // `truncated` case): the coverage mask keeps only the rays the CT explains.
   const Scene full;
-  xp::CTVolumeData central = full.ct;
-  const int slices = full.ct.dimensions[2], kept = slices * 2 / 5, first = (slices - kept) / 2;
-  const size_t sliceSize = static_cast<size_t>(full.ct.dimensions[0]) * full.ct.dimensions[1];
-  central.dimensions[2] = kept;
-  central.origin += full.ct.direction.col(2) * (first * full.ct.spacing[2]);
-  central.hounsfield.assign(full.ct.hounsfield.begin() + first * sliceSize, full.ct.hounsfield.begin() + (first + kept) * sliceSize);
-  const Scene cropped(central);
+  const Scene cropped(CentralSlices(full.ct));
   const xp::Pose truth = xp::Pose::Parse("3,-2,2,1,-1,1.5", "truth");
   const xp::StereoRegistrationResult result =
     xp::RegisterStereo(cropped.volume, cropped.planned, Eigen::Vector3d::Zero(), Simulate(full, truth, 6));
+  EXPECT_TRUE(result.ok) << (result.reasons.empty() ? "" : result.reasons.front());
+  EXPECT_LT((result.misalignment.translation - truth.translation).cwiseAbs().maxCoeff(), 1.2) << result.misalignment.ToString();
+  EXPECT_LT(result.validFraction[0], 0.9);
+}
+
+TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
+{
+  // The same without the coverage mask: the X-rays show anatomy the CT cannot explain at any
+  // pose, and the gate's check of uncovered anatomy refuses the result.
+  const Scene full;
+  const Scene cropped(CentralSlices(full.ct));
+  const xp::Pose truth = xp::Pose::Parse("3,-2,2,1,-1,1.5", "truth");
+  xp::StereoRegistrationSettings settings;
+  settings.coverageMask = false;
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(cropped.volume, cropped.planned, Eigen::Vector3d::Zero(), Simulate(full, truth, 6), settings);
   EXPECT_FALSE(result.ok) << result.misalignment.ToString();
   EXPECT_TRUE(std::any_of(result.reasons.begin(), result.reasons.end(),
     [](const std::string& reason) { return reason.find("the CT does not cover what the X-ray shows") != std::string::npos; }))

@@ -1,6 +1,13 @@
-// Simulated stereo X-rays of a misaligned patient, shared by `simulate` and `evaluate` (internal).
-#ifndef xpXRaySimulator_h
-#define xpXRaySimulator_h
+/**
+ * @file xpModelXRaySimulator.h
+ * @brief X-rays made with the DRR filter's own image model (monochromatic, trilinear, -950 HU air),
+ *        optionally re-weighted: the "own-model" scenarios of `xpose evaluate`. They cannot show a
+ *        bias of that model; XRayPhysicsSimulator (xpXRayPhysics.h) can.
+ */
+#ifndef xpModelXRaySimulator_h
+#define xpModelXRaySimulator_h
+
+#include "vtkXPSimulationModule.h"
 
 #include "vtkXPDRRFilter.h"
 #include "xpPose.h"
@@ -27,7 +34,7 @@ struct XRaySimulation
  * Renders X-rays of one CT for many poses: the CT's attenuation model (kV contrast or not) is
  * built once. Images are 12-bit transmission, row 0 at the top.
  */
-class XRaySimulator
+class VTKXPSIMULATION_EXPORT XRaySimulator
 {
 public:
   XRaySimulator(vtkImageData* ct, PatientPosition position, const Eigen::Vector3d& isocenterInCT,

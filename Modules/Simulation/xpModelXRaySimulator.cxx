@@ -1,4 +1,4 @@
-#include "xpXRaySimulator.h"
+#include "xpModelXRaySimulator.h"
 
 #include "xpError.h"
 #include "xpImageRows.h"

@@ -1,0 +1,58 @@
+/**
+ * @file xpBodyMask.h
+ * @brief The patient's body in a CT, apart from the scanner table and the air around it.
+ *
+ * A planning CT shows its own table under the patient; a treatment couch is another object, in
+ * another place. Rendering DRRs, or simulating X-rays, from the body alone keeps the CT's table
+ * out of both.
+ */
+#ifndef xpBodyMask_h
+#define xpBodyMask_h
+
+#include "vtkXPMaskingModule.h"
+
+#include <vtkImageData.h>
+#include <vtkSmartPointer.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+namespace xp
+{
+
+struct BodyMaskSettings
+{
+  /** Tissue is above this (HU): fat (-100) and skin are in; the table's foam and carbon shell,
+   *  mostly -900 to -400 HU in a CT, and the air between them and the patient are out. */
+  double thresholdHU = -400.0;
+  /** A separate component is kept when it has at least this fraction of the largest one's
+   *  voxels: arms beside the body stay, thin table fragments (rails, shell edges) go. */
+  double minComponentFraction = 0.02;
+  /** In-slice radius (voxels) of the opening that separates thin shells from the body: parts
+   *  thinner than 2 r + 1 voxels cannot hold a component together. */
+  int openingRadius = 3;
+  /** Voxels added around the kept tissue in each slice: the skin's partial-volume rim. */
+  int dilation = 1;
+};
+
+/**
+ * 1 for voxels of the body: the tissue above the threshold that belongs to a large 6-connected
+ * component once thin parts are opened away, with the cavities of each slice (bowel gas, lungs)
+ * filled, dilated by `dilation` voxels in-slice.
+ * @param hu voxels, x fastest, dims[0] * dims[1] * dims[2] values
+ */
+VTKXPMASKING_EXPORT std::vector<uint8_t> SegmentBody(
+  const float* hu, const Eigen::Vector3i& dims, const BodyMaskSettings& settings = {});
+
+/** Sets every voxel outside `body` to -1000 HU (air); returns how many changed. */
+VTKXPMASKING_EXPORT long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body);
+
+/** A float copy of a HU image with everything outside the body set to air: the CT without its
+ *  table. `removed` (optional) receives the number of voxels cleared. */
+VTKXPMASKING_EXPORT vtkSmartPointer<vtkImageData> BodyOnly(
+  vtkImageData* ct, const BodyMaskSettings& settings = {}, long long* removed = nullptr);
+
+} // namespace xp
+
+#endif

@@ -1,0 +1,96 @@
+#include "xpCTCoverage.h"
+
+#include <vtkSMPTools.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace xp
+{
+
+namespace
+{
+
+/** The body's outline along the slice axis: voxels (i, j) with attenuation in any slice, widened
+ *  by `radius` voxels (a square). */
+std::vector<uint8_t> Outline(const AttenuationVolume& volume, int radiusI, int radiusJ)
+{
+  const Eigen::Vector3i& d = volume.Dimensions();
+  std::vector<uint8_t> seen(static_cast<size_t>(d[0]) * d[1], 0);
+  for (int k = 0; k < d[2]; ++k)
+    for (int j = 0; j < d[1]; ++j)
+      for (int i = 0; i < d[0]; ++i)
+        if (volume.At(i, j, k) > 0.0f)
+          seen[static_cast<size_t>(j) * d[0] + i] = 1;
+  std::vector<uint8_t> wide(seen.size(), 0), rows(seen.size(), 0);
+  for (int j = 0; j < d[1]; ++j)
+    for (int i = 0; i < d[0]; ++i)
+      for (int n = std::max(0, i - radiusI); n <= std::min(d[0] - 1, i + radiusI) && !rows[static_cast<size_t>(j) * d[0] + i]; ++n)
+        rows[static_cast<size_t>(j) * d[0] + i] = seen[static_cast<size_t>(j) * d[0] + n];
+  for (int j = 0; j < d[1]; ++j)
+    for (int i = 0; i < d[0]; ++i)
+      for (int n = std::max(0, j - radiusJ); n <= std::min(d[1] - 1, j + radiusJ) && !wide[static_cast<size_t>(j) * d[0] + i]; ++n)
+        wide[static_cast<size_t>(j) * d[0] + i] = rows[static_cast<size_t>(n) * d[0] + i];
+  return wide;
+}
+
+} // namespace
+
+std::vector<uint8_t> CTCoverageMask(
+  const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom, const XRayView& view, double marginMM)
+{
+  const Eigen::Vector3i& d = volume.Dimensions();
+  // Original voxel index -> Room, and its spacing along each index axis.
+  const Eigen::Affine3d indexToCT = volume.PaddedIndexToCT() * Eigen::Translation3d(1.0, 1.0, 1.0);
+  const Eigen::Vector3d spacing(indexToCT.linear().col(0).norm(), indexToCT.linear().col(1).norm(),
+    indexToCT.linear().col(2).norm());
+  const Eigen::Affine3d roomToIndex = (ctToRoom * indexToCT).inverse();
+  const std::vector<uint8_t> outline = Outline(volume, static_cast<int>(std::ceil(marginMM / spacing[0])),
+    static_cast<int>(std::ceil(marginMM / spacing[1])));
+  const double kLow = -0.5 + marginMM / spacing[2], kHigh = d[2] - 0.5 - marginMM / spacing[2];
+
+  const int columns = view.Columns(), rows = view.Rows();
+  std::vector<uint8_t> mask(static_cast<size_t>(columns) * rows, 1);
+  const Eigen::Vector3d source = roomToIndex * view.source;
+  vtkSMPTools::For(0, rows, [&](int firstRow, int lastRow)
+    {
+      for (int row = firstRow; row < lastRow; ++row)
+        for (int column = 0; column < columns; ++column)
+        {
+          const Eigen::Vector3d direction = roomToIndex * view.PixelCenter(column, row) - source;
+          // The ray's parameter range over the slices' lateral extent.
+          double t0 = 0.0, t1 = 1.0;
+          for (int axis = 0; axis < 2; ++axis)
+          {
+            if (std::abs(direction[axis]) < 1e-12)
+            {
+              if (source[axis] < -0.5 || source[axis] > d[axis] - 0.5)
+                t1 = -1.0;
+              continue;
+            }
+            double ta = (-0.5 - source[axis]) / direction[axis], tb = (d[axis] - 0.5 - source[axis]) / direction[axis];
+            if (ta > tb)
+              std::swap(ta, tb);
+            t0 = std::max(t0, ta);
+            t1 = std::min(t1, tb);
+          }
+          // One sample per voxel crossed laterally.
+          const double lateral = std::max(std::abs(direction[0]), std::abs(direction[1]));
+          const double step = lateral > 1e-12 ? 1.0 / lateral : std::max(t1 - t0, 1e-3);
+          for (double t = t0; t <= t1; t += step)
+          {
+            const Eigen::Vector3d p = source + t * direction;
+            const int i = std::clamp(static_cast<int>(std::lround(p[0])), 0, d[0] - 1);
+            const int j = std::clamp(static_cast<int>(std::lround(p[1])), 0, d[1] - 1);
+            if (outline[static_cast<size_t>(j) * d[0] + i] && (p[2] < kLow || p[2] > kHigh))
+            {
+              mask[static_cast<size_t>(row) * columns + column] = 0;
+              break;
+            }
+          }
+        }
+    });
+  return mask;
+}
+
+} // namespace xp

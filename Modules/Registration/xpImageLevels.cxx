@@ -1,0 +1,126 @@
+#include "xpImageLevels.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace xp
+{
+
+void LevelTable::Build(const float* values, const uint8_t* mask, long long count)
+{
+  std::vector<float> sorted;
+  sorted.reserve(static_cast<size_t>(count));
+  for (long long i = 0; i < count; ++i)
+    if (!mask || mask[i])
+      sorted.push_back(values[i]);
+  std::sort(sorted.begin(), sorted.end());
+  const double low = sorted.empty() ? 0.0 : sorted.front(), high = sorted.empty() ? 1.0 : sorted.back();
+  const double margin = std::max(0.2 * (high - low), 1e-6);
+  this->Low = low - margin;
+  this->ToCell = RankLevels / (high - low + 2.0 * margin);
+  this->Table.resize(RankLevels);
+  for (int c = 0; c < RankLevels; ++c)
+  {
+    const float middle = static_cast<float>(this->Low + (c + 0.5) / this->ToCell);
+    const size_t below = std::lower_bound(sorted.begin(), sorted.end(), middle) - sorted.begin();
+    this->Table[c] = static_cast<uint16_t>(sorted.empty() ? 0 : (RankLevels - 1) * static_cast<double>(below) / sorted.size());
+  }
+}
+
+std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask)
+{
+  std::vector<long long> histogram(65536, 0);
+  long long valid = 0;
+  for (size_t i = 0; i < image.size(); ++i)
+    if (mask.empty() || mask[i])
+    {
+      ++histogram[image[i]];
+      ++valid;
+    }
+  std::vector<uint16_t> level(65536, 0);
+  long long below = 0;
+  for (size_t v = 0; v < level.size(); ++v)
+  {
+    level[v] = static_cast<uint16_t>(valid > 0 ? (RankLevels - 1) * (below + 0.5 * histogram[v]) / valid : 0);
+    below += histogram[v];
+  }
+  std::vector<uint16_t> out(image.size());
+  for (size_t i = 0; i < image.size(); ++i)
+    out[i] = level[image[i]];
+  return out;
+}
+
+namespace
+{
+
+/** In-place separable Gaussian of a w x h float grid, edges replicated. */
+void Blur(std::vector<double>& grid, int w, int h, double sigma)
+{
+  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
+  std::vector<double> kernel(2 * radius + 1);
+  for (int i = -radius; i <= radius; ++i)
+    kernel[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
+  std::vector<double> out(grid.size());
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+    {
+      double s = 0.0;
+      for (int k = -radius; k <= radius; ++k)
+        s += kernel[k + radius] * grid[static_cast<size_t>(y) * w + std::clamp(x + k, 0, w - 1)];
+      out[static_cast<size_t>(y) * w + x] = s;
+    }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+    {
+      double s = 0.0;
+      for (int k = -radius; k <= radius; ++k)
+        s += kernel[k + radius] * out[static_cast<size_t>(std::clamp(y + k, 0, h - 1)) * w + x];
+      grid[static_cast<size_t>(y) * w + x] = s;
+    }
+}
+
+} // namespace
+
+void SubtractLowPass(float* values, const uint8_t* mask, int columns, int rows, double sigmaPixels)
+{
+  if (!(sigmaPixels > 0.0))
+    return;
+  const int factor = std::max(1, static_cast<int>(std::lround(sigmaPixels / 4.0)));
+  const int w = (columns + factor - 1) / factor, h = (rows + factor - 1) / factor;
+  std::vector<double> sum(static_cast<size_t>(w) * h, 0.0), weight(sum.size(), 0.0);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+    {
+      const size_t i = static_cast<size_t>(r) * columns + c;
+      if (mask && !mask[i])
+        continue;
+      const size_t cell = static_cast<size_t>(r / factor) * w + c / factor;
+      sum[cell] += values[i];
+      weight[cell] += 1.0;
+    }
+  Blur(sum, w, h, sigmaPixels / factor);
+  Blur(weight, w, h, sigmaPixels / factor);
+  for (size_t cell = 0; cell < sum.size(); ++cell)
+    sum[cell] = weight[cell] > 1e-9 ? sum[cell] / weight[cell] : 0.0;
+  // Bilinear between cell centres: pixel c lies at (c + 0.5) / factor - 0.5 in cell units.
+  for (int r = 0; r < rows; ++r)
+  {
+    const double y = std::clamp((r + 0.5) / factor - 0.5, 0.0, h - 1.0);
+    const int y0 = std::min(static_cast<int>(y), h - 1), y1 = std::min(y0 + 1, h - 1);
+    const double fy = y - y0;
+    for (int c = 0; c < columns; ++c)
+    {
+      const size_t i = static_cast<size_t>(r) * columns + c;
+      if (mask && !mask[i])
+        continue;
+      const double x = std::clamp((c + 0.5) / factor - 0.5, 0.0, w - 1.0);
+      const int x0 = std::min(static_cast<int>(x), w - 1), x1 = std::min(x0 + 1, w - 1);
+      const double fx = x - x0;
+      const double low = (1 - fy) * ((1 - fx) * sum[static_cast<size_t>(y0) * w + x0] + fx * sum[static_cast<size_t>(y0) * w + x1]) +
+        fy * ((1 - fx) * sum[static_cast<size_t>(y1) * w + x0] + fx * sum[static_cast<size_t>(y1) * w + x1]);
+      values[i] = static_cast<float>(values[i] - low);
+    }
+  }
+}
+
+} // namespace xp

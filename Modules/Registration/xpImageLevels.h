@@ -1,0 +1,60 @@
+/**
+ * @file xpImageLevels.h
+ * @brief The grey levels that MI bins: ranks instead of raw values, and structure instead of
+ *        shading.
+ *
+ * Ranks make the histogram's bins hold equal shares of the valid pixels whatever the grey-level
+ * mapping of the image. Subtracting a wide low-pass removes the smooth shading that scatter, the
+ * heel effect and a couch add to an X-ray and a DRR does not have, before the ranks are taken.
+ */
+#ifndef xpImageLevels_h
+#define xpImageLevels_h
+
+#include "vtkXPRegistrationModule.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace xp
+{
+
+/** 4096 levels: the 12-bit range MI's histogram spans. */
+constexpr int RankLevels = 4096;
+
+/** Monotone map of values to levels 0..4095 by their rank among a reference sample. */
+class VTKXPREGISTRATION_EXPORT LevelTable
+{
+public:
+  /** The reference: the values of `count` pixels whose mask is non-zero (null = all). */
+  void Build(const float* values, const uint8_t* mask, long long count);
+  bool Empty() const { return this->Table.empty(); }
+  /** Level of a value: the share of the reference below it, in cells 1/4096 of its range wide
+   *  (20 % wider than the reference's on each side: later poses may see a little more). */
+  uint16_t operator()(float value) const
+  {
+    long long cell = static_cast<long long>((value - this->Low) * this->ToCell);
+    cell = cell < 0 ? 0 : (cell >= RankLevels ? RankLevels - 1 : cell);
+    return this->Table[static_cast<size_t>(cell)];
+  }
+
+private:
+  double Low = 0.0;
+  double ToCell = 1.0;
+  std::vector<uint16_t> Table;
+};
+
+/** Mid-rank levels of a 12-bit image over its valid pixels (histogram equalisation). */
+VTKXPREGISTRATION_EXPORT std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask);
+
+/**
+ * `values` minus their Gaussian low-pass of sd `sigmaPixels`, over the valid pixels only
+ * (normalised convolution: masked pixels neither count nor receive); computed on a grid coarser
+ * by about sigma / 4 and interpolated back, so it costs little more than one pass over the image.
+ */
+VTKXPREGISTRATION_EXPORT void SubtractLowPass(
+  float* values, const uint8_t* mask, int columns, int rows, double sigmaPixels);
+
+} // namespace xp
+
+#endif
