@@ -49,8 +49,9 @@ double MaxAbs(const std::array<double, 6>& error, int first)
 std::string GroupJSON(const std::vector<const TrialRecord*>& group)
 {
   std::vector<double> mtre, translation, rotation, seconds, drrs, evaluations;
-  std::array<std::vector<double>, 6> axis;
-  int successes = 0, ok = 0;
+  std::array<std::vector<double>, 6> axis, signedAxis;
+  int successes = 0, ok = 0, okBeyond2 = 0;
+  double largestOk = 0.0;
   for (const TrialRecord* r : group)
   {
     successes += r->success;
@@ -62,7 +63,15 @@ std::string GroupJSON(const std::vector<const TrialRecord*>& group)
     drrs.push_back(static_cast<double>(r->drrCount));
     evaluations.push_back(r->evaluations);
     for (int a = 0; a < 6; ++a)
+    {
       axis[a].push_back(std::abs(r->error[a]));
+      signedAxis[a].push_back(r->error[a]);
+    }
+    if (r->status == "ok")
+    {
+      largestOk = std::max(largestOk, r->mtre);
+      okBeyond2 += r->mtre > 2.0;
+    }
   }
   const double n = static_cast<double>(group.size());
   std::ostringstream json;
@@ -71,7 +80,11 @@ std::string GroupJSON(const std::vector<const TrialRecord*>& group)
        << ", \"p95\": " << Number(Quantile(mtre, 0.95)) << "}, \"abs_error_median\": {";
   for (int a = 0; a < 6; ++a)
     json << (a ? ", " : "") << "\"" << AxisNames[a] << "\": " << Number(Quantile(axis[a], 0.5));
-  json << "}, \"abs_error_p95\": {";
+  json << "}, \"signed_error_median\": {";
+  for (int a = 0; a < 6; ++a)
+    json << (a ? ", " : "") << "\"" << AxisNames[a] << "\": " << Number(Quantile(signedAxis[a], 0.5));
+  json << "}, \"ok_beyond_2mm_mtre\": " << okBeyond2 << ", \"largest_ok_mtre_mm\": " << Number(largestOk);
+  json << ", \"abs_error_p95\": {";
   for (int a = 0; a < 6; ++a)
     json << (a ? ", " : "") << "\"" << AxisNames[a] << "\": " << Number(Quantile(axis[a], 0.95));
   json << "}, \"max_axis_translation_error_mm\": {\"median\": " << Number(Quantile(translation, 0.5))
@@ -304,6 +317,27 @@ std::string SummaryTable(const std::vector<TrialRecord>& records)
       approach == "A" ? "A: whole image" : approach == "B" ? "B: entropy masks" : approach.c_str(), group.size(),
       rate(group, 20.0).c_str(), rate(group, 30.0).c_str(), Quantile(mtre, 0.5), Quantile(mtre, 0.95), axis[0], axis[1], axis[2],
       axis[3], axis[4], axis[5], medianTime[approach], Quantile(seconds, 0.95));
+    table << line;
+  }
+  // Bias: the median signed error per axis, and the confident wrong answers.
+  table << "\n| approach | median signed error tx ty tz (mm) | median signed error pitch roll yaw (deg) | ok | ok beyond "
+           "2 mm mTRE | largest ok mTRE (mm) |\n|---|---|---|---|---|---|\n";
+  for (const auto& [approach, group] : byApproach)
+  {
+    std::array<double, 6> bias{};
+    for (int a = 0; a < 6; ++a)
+      bias[a] = Quantile(column(group, [a](const TrialRecord& r) { return r.error[a]; }), 0.5);
+    int ok = 0, wrong = 0;
+    double largest = 0.0;
+    for (const TrialRecord* r : group)
+      if (r->status == "ok")
+      {
+        ++ok;
+        wrong += r->mtre > 2.0;
+        largest = std::max(largest, r->mtre);
+      }
+    std::snprintf(line, sizeof(line), "| %s | %+.3f %+.3f %+.3f | %+.3f %+.3f %+.3f | %d | %d | %.3f |\n", approach.c_str(), bias[0],
+      bias[1], bias[2], bias[3], bias[4], bias[5], ok, wrong, largest);
     table << line;
   }
   if (medianTime.count("A") && medianTime.count("B") && medianTime["B"] > 0)

@@ -123,6 +123,8 @@ int main(int argc, char** argv)
   evaluateCommand->add_option("--registration-off", evaluate.registrationOff,
     "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage")
     ->delimiter(',');
+  evaluateCommand->add_option("--high-pass-mm", evaluate.highPassMM, "The refinement's high-pass sd, mm on the panel (default 20)");
+  evaluateCommand->add_option("--coverage-margin-mm", evaluate.coverageMarginMM, "The CT coverage mask's margin, mm (default 4)");
   evaluateCommand->add_option("--approaches", evaluate.approaches, "A (whole image) and/or B (entropy masks)")
     ->capture_default_str();
   evaluateCommand->add_option("--noise", evaluate.noise, "Quantum noise of the noisy scenarios")->capture_default_str();

@@ -38,7 +38,7 @@ struct TubeSettings
   double aluminiumMM = 2.5;       ///< inherent + added aluminium filtration
   double copperMM = 0.0;          ///< added copper filtration
   double scintillatorMM = 0.6;    ///< CsI thickness of the flat panel
-  double binKeV = 1.0;            ///< width of an energy bin
+  double binKeV = 2.0;            ///< width of an energy bin
 };
 
 /**

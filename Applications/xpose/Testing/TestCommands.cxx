@@ -403,8 +403,11 @@ TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
     }
   }
   std::printf("largest axis error with X-ray-only objects: masked %.3f mm, unmasked %.3f mm\n", error[1], error[0]);
-  EXPECT_LE(error[1], error[0] + 0.05) << "the masked run must be at least as accurate (to 0.05 mm)";
-  EXPECT_LT(error[1], 0.5);
+  // Since MI bins ranked levels (xpImageLevels.h), the objects no longer pull the whole-image run
+  // either: both are accurate, and the masks (with less of the image) may cost at most 0.1 mm.
+  EXPECT_LE(error[1], error[0] + 0.1) << "the masked run must be about as accurate (to 0.1 mm)";
+  EXPECT_LT(error[1], 0.3);
+  EXPECT_LT(error[0], 0.3);
 }
 
 TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
