@@ -39,18 +39,43 @@ std::vector<uint8_t> Outline(const AttenuationVolume& volume, int radiusI, int r
 std::vector<uint8_t> CTCoverageMask(
   const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom, const XRayView& view, double marginMM)
 {
-  const Eigen::Vector3i& d = volume.Dimensions();
-  // Original voxel index -> Room, and its spacing along each index axis.
-  const Eigen::Affine3d indexToCT = volume.PaddedIndexToCT() * Eigen::Translation3d(1.0, 1.0, 1.0);
-  const Eigen::Vector3d spacing(indexToCT.linear().col(0).norm(), indexToCT.linear().col(1).norm(),
-    indexToCT.linear().col(2).norm());
-  const Eigen::Affine3d roomToIndex = (ctToRoom * indexToCT).inverse();
-  const std::vector<uint8_t> outline = Outline(volume, static_cast<int>(std::ceil(marginMM / spacing[0])),
-    static_cast<int>(std::ceil(marginMM / spacing[1])));
-  const double kLow = -0.5 + marginMM / spacing[2], kHigh = d[2] - 0.5 - marginMM / spacing[2];
+  return CTCoverage(volume, marginMM).Mask(ctToRoom, view);
+}
 
+CTCoverage::CTCoverage(const AttenuationVolume& volume, double marginMM)
+  : Volume(volume)
+  , MarginMM(marginMM)
+{
+  // Original voxel index -> CT, and its spacing along each index axis.
+  this->IndexToCT = volume.PaddedIndexToCT() * Eigen::Translation3d(1.0, 1.0, 1.0);
+  this->Spacing = Eigen::Vector3d(this->IndexToCT.linear().col(0).norm(), this->IndexToCT.linear().col(1).norm(),
+    this->IndexToCT.linear().col(2).norm());
+  this->Outline = xp::Outline(volume, static_cast<int>(std::ceil(marginMM / this->Spacing[0])),
+    static_cast<int>(std::ceil(marginMM / this->Spacing[1])));
+  const Eigen::Vector3i& d = volume.Dimensions();
+  this->OutlineLow = Eigen::Vector2d(d[0], d[1]);
+  this->OutlineHigh = Eigen::Vector2d(-1, -1);
+  for (int j = 0; j < d[1]; ++j)
+    for (int i = 0; i < d[0]; ++i)
+      if (this->Outline[static_cast<size_t>(j) * d[0] + i])
+      {
+        this->OutlineLow = this->OutlineLow.cwiseMin(Eigen::Vector2d(i, j));
+        this->OutlineHigh = this->OutlineHigh.cwiseMax(Eigen::Vector2d(i, j));
+      }
+  this->OutlineLow.array() -= 0.5;
+  this->OutlineHigh.array() += 0.5;
+}
+
+std::vector<uint8_t> CTCoverage::Mask(const Eigen::Isometry3d& ctToRoom, const XRayView& view) const
+{
+  const Eigen::Vector3i& d = this->Volume.Dimensions();
+  const std::vector<uint8_t>& outline = this->Outline;
+  const Eigen::Affine3d roomToIndex = (ctToRoom * this->IndexToCT).inverse();
+  const double kLow = -0.5 + this->MarginMM / this->Spacing[2], kHigh = d[2] - 0.5 - this->MarginMM / this->Spacing[2];
   const int columns = view.Columns(), rows = view.Rows();
   std::vector<uint8_t> mask(static_cast<size_t>(columns) * rows, 1);
+  if (this->OutlineHigh[0] < this->OutlineLow[0])
+    return mask; // no attenuation anywhere: nothing to cross
   const Eigen::Vector3d source = roomToIndex * view.source;
   vtkSMPTools::For(0, rows, [&](int firstRow, int lastRow)
     {
@@ -58,17 +83,18 @@ std::vector<uint8_t> CTCoverageMask(
         for (int column = 0; column < columns; ++column)
         {
           const Eigen::Vector3d direction = roomToIndex * view.PixelCenter(column, row) - source;
-          // The ray's parameter range over the slices' lateral extent.
+          // The ray's parameter range over the outline's lateral extent.
           double t0 = 0.0, t1 = 1.0;
           for (int axis = 0; axis < 2; ++axis)
           {
             if (std::abs(direction[axis]) < 1e-12)
             {
-              if (source[axis] < -0.5 || source[axis] > d[axis] - 0.5)
+              if (source[axis] < this->OutlineLow[axis] || source[axis] > this->OutlineHigh[axis])
                 t1 = -1.0;
               continue;
             }
-            double ta = (-0.5 - source[axis]) / direction[axis], tb = (d[axis] - 0.5 - source[axis]) / direction[axis];
+            double ta = (this->OutlineLow[axis] - source[axis]) / direction[axis],
+                   tb = (this->OutlineHigh[axis] - source[axis]) / direction[axis];
             if (ta > tb)
               std::swap(ta, tb);
             t0 = std::max(t0, ta);

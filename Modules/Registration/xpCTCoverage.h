@@ -30,6 +30,23 @@ namespace xp
 VTKXPREGISTRATION_EXPORT std::vector<uint8_t> CTCoverageMask(
   const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom, const XRayView& view, double marginMM);
 
+/** The same, with the body's outline found once for many poses and views. */
+class VTKXPREGISTRATION_EXPORT CTCoverage
+{
+public:
+  /** Keeps a reference to `volume`, which must outlive this. */
+  CTCoverage(const AttenuationVolume& volume, double marginMM);
+  std::vector<uint8_t> Mask(const Eigen::Isometry3d& ctToRoom, const XRayView& view) const;
+
+private:
+  const AttenuationVolume& Volume;
+  double MarginMM;
+  Eigen::Affine3d IndexToCT;
+  Eigen::Vector3d Spacing;
+  std::vector<uint8_t> Outline;      ///< (i, j), i fastest
+  Eigen::Vector2d OutlineLow, OutlineHigh; ///< the outline's extent in voxel indices (+-0.5)
+};
+
 } // namespace xp
 
 #endif

@@ -110,9 +110,9 @@ double UncoveredFraction(const std::vector<uint16_t>& xray, const std::vector<ui
 }
 
 /** Leaves out of `item.mask` the pixels whose rays cross the body beyond the CT's end slices. */
-void AndCoverage(RegistrationView& item, const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom, double marginMM)
+void AndCoverage(RegistrationView& item, const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom)
 {
-  const std::vector<uint8_t> covered = CTCoverageMask(volume, ctToRoom, item.view, marginMM);
+  const std::vector<uint8_t> covered = coverage.Mask(ctToRoom, item.view);
   for (size_t i = 0; i < covered.size(); ++i)
     item.mask[i] &= covered[i];
 }
@@ -186,6 +186,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   start = Clock::now();
   std::vector<RegistrationView> masked = views;
   std::vector<std::vector<uint8_t>> contentMasks; // entropy AND ROI, before the coverage
+  const CTCoverage coverage(volume, settings.coverageMarginMM);
   const Eigen::Isometry3d prealignedCTToRoom = MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter);
   for (size_t v = 0; v < views.size(); ++v)
   {
@@ -205,7 +206,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     masked[v].mask = TransferMask(mask, item.view, item.view);
     contentMasks.push_back(masked[v].mask);
     if (settings.coverageMask)
-      AndCoverage(masked[v], volume, prealignedCTToRoom, settings.coverageMarginMM);
+      AndCoverage(masked[v], coverage, prealignedCTToRoom);
     const long long valid = std::count(masked[v].mask.begin(), masked[v].mask.end(), 1);
     if (valid == 0)
     {
@@ -288,7 +289,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     for (size_t v = 0; v < masked.size(); ++v)
     {
       masked[v].mask = contentMasks[v];
-      AndCoverage(masked[v], volume, searchedCTToRoom, settings.coverageMarginMM);
+      AndCoverage(masked[v], coverage, searchedCTToRoom);
       if (std::count(masked[v].mask.begin(), masked[v].mask.end(), 1) == 0)
         throw InputError("view " + masked[v].view.name, "the CT covers none of the valid pixels: nothing left to register");
     }
