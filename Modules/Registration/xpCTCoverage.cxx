@@ -100,20 +100,46 @@ std::vector<uint8_t> CTCoverage::Mask(const Eigen::Isometry3d& ctToRoom, const X
             t0 = std::max(t0, ta);
             t1 = std::min(t1, tb);
           }
-          // One sample per voxel crossed laterally.
+          if (t0 > t1)
+            continue;
+          // Only the parts of [t0, t1] beyond the end slices can uncover the pixel: most rays
+          // have none, and the slice index is linear in t.
+          double inside0 = t0, inside1 = t1; // where kLow <= k <= kHigh
+          if (std::abs(direction[2]) < 1e-12)
+          {
+            if (source[2] < kLow || source[2] > kHigh)
+              inside1 = inside0 - 1.0; // the whole range is beyond
+          }
+          else
+          {
+            double ta = (kLow - source[2]) / direction[2], tb = (kHigh - source[2]) / direction[2];
+            if (ta > tb)
+              std::swap(ta, tb);
+            inside0 = std::max(t0, ta);
+            inside1 = std::min(t1, tb);
+          }
+          if (inside0 <= t0 && inside1 >= t1)
+            continue;
+          // One sample per voxel crossed laterally, over the parts beyond.
           const double lateral = std::max(std::abs(direction[0]), std::abs(direction[1]));
           const double step = lateral > 1e-12 ? 1.0 / lateral : std::max(t1 - t0, 1e-3);
-          for (double t = t0; t <= t1; t += step)
+          const auto crossesBodyBeyond = [&](double from, double to)
           {
-            const Eigen::Vector3d p = source + t * direction;
-            const int i = std::clamp(static_cast<int>(std::lround(p[0])), 0, d[0] - 1);
-            const int j = std::clamp(static_cast<int>(std::lround(p[1])), 0, d[1] - 1);
-            if (outline[static_cast<size_t>(j) * d[0] + i] && (p[2] < kLow || p[2] > kHigh))
+            for (double t = from; t <= to; t += step)
             {
-              mask[static_cast<size_t>(row) * columns + column] = 0;
-              break;
+              const Eigen::Vector3d p = source + t * direction;
+              const int i = std::clamp(static_cast<int>(std::lround(p[0])), 0, d[0] - 1);
+              const int j = std::clamp(static_cast<int>(std::lround(p[1])), 0, d[1] - 1);
+              if (outline[static_cast<size_t>(j) * d[0] + i] && (p[2] < kLow || p[2] > kHigh))
+                return true;
             }
-          }
+            return false;
+          };
+          const bool beyond = inside0 > inside1
+            ? crossesBodyBeyond(t0, t1)
+            : (inside0 > t0 && crossesBodyBeyond(t0, inside0)) || (inside1 < t1 && crossesBodyBeyond(inside1, t1));
+          if (beyond)
+            mask[static_cast<size_t>(row) * columns + column] = 0;
         }
     });
   return mask;

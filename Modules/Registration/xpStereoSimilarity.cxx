@@ -51,6 +51,19 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
   this->StructureLevels.resize(this->Items.size());
   this->Structure.resize(this->Items.size());
   this->LastMI.assign(this->Items.size(), 0.0);
+  this->DRRCurrent.assign(this->Items.size(), false);
+}
+
+const std::vector<uint16_t>& StereoSimilarity::LastDRR(size_t v) const
+{
+  if (!this->DRRCurrent[v])
+  {
+    const RegistrationView& item = this->Items[v];
+    LineIntegralsTo12Bit(this->Integrals[v].data(), item.mask.empty() ? nullptr : item.mask.data(),
+      static_cast<long long>(item.xray.size()), this->DRRs[v].data());
+    this->DRRCurrent[v] = true;
+  }
+  return this->DRRs[v];
 }
 
 double StereoSimilarity::Evaluate(const Pose& misalignment)
@@ -64,7 +77,7 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     const long long count = static_cast<long long>(item.xray.size());
     RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
       this->Traced[v], this->Integrals[v].data());
-    LineIntegralsTo12Bit(this->Integrals[v].data(), mask, count, this->DRRs[v].data());
+    this->DRRCurrent[v] = false;
     if (this->Equalize)
       this->RankDRR(v);
     this->Histogram.Compute(this->XRayLevels(v).data(), this->LastDRRLevels(v).data(), count, mask, mask);

@@ -60,10 +60,10 @@ public:
   /** MI per view of the last evaluation. */
   const std::vector<double>& LastMutualInformation() const { return this->LastMI; }
   /** The 12-bit DRR (transmission) of view v from the last evaluation (0 where masked). */
-  const std::vector<uint16_t>& LastDRR(size_t v) const { return this->DRRs[v]; }
+  const std::vector<uint16_t>& LastDRR(size_t v) const;
   /** The images as MI sees them: equalised levels, or the X-ray and the DRR as they are. */
   const std::vector<uint16_t>& XRayLevels(size_t v) const { return this->Equalize ? this->XRayRanks[v] : this->Items[v].xray; }
-  const std::vector<uint16_t>& LastDRRLevels(size_t v) const { return this->Equalize ? this->DRRRanks[v] : this->DRRs[v]; }
+  const std::vector<uint16_t>& LastDRRLevels(size_t v) const { return this->Equalize ? this->DRRRanks[v] : this->LastDRR(v); }
   long long RenderedDRRs() const { return this->DRRCount; }
   const std::vector<RegistrationView>& Views() const { return this->Items; }
 
@@ -78,7 +78,10 @@ private:
   JointHistogram Histogram;
   std::vector<TracedPixels> Traced; ///< per view, built once: the mask is fixed
   std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
-  std::vector<std::vector<uint16_t>> DRRs;
+  /** With equalised levels MI never reads the 12-bit DRRs: they are converted when asked for, not
+   *  at every evaluation. */
+  mutable std::vector<std::vector<uint16_t>> DRRs;
+  mutable std::vector<bool> DRRCurrent;
   bool Equalize = true;
   double HighPassMM = 0.0;
   std::vector<std::vector<uint16_t>> XRayRanks;
