@@ -383,6 +383,11 @@ int RunEvaluate(const EvaluateOptions& options)
       r.totalSeconds = std::chrono::duration<double>(Clock::now() - registrationStart).count();
       r.drrCount = result.drrCount;
       r.evaluations = result.evaluations;
+      r.explained = *std::min_element(result.explained.begin(), result.explained.end());
+      r.residualMM = *std::max_element(result.viewResidualMM.begin(), result.viewResidualMM.end());
+      r.uncovered = *std::max_element(result.uncovered.begin(), result.uncovered.end());
+      r.searchApartMM = result.searchDisagreementMM;
+      r.searchApartDegrees = result.searchDisagreementDegrees;
       for (const std::string& reason : result.reasons)
         r.reasons += (r.reasons.empty() ? "" : "; ") + reason;
       csv << TrialCSVRow(r) << std::endl; // flushed: an interruption keeps every finished registration

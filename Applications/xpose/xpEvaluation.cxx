@@ -117,7 +117,8 @@ std::string TrialCSVHeader()
   header += ",initial_translation_mm,initial_mtre_mm,status";
   for (const char* axis : AxisNames)
     header += std::string(",error_") + axis;
-  return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,reasons";
+  return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
+                  "search_apart_mm,search_apart_deg,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -134,7 +135,8 @@ std::string TrialCSVRow(const TrialRecord& r)
   std::replace(reasons.begin(), reasons.end(), ',', ' ');
   std::replace(reasons.begin(), reasons.end(), '\n', ' ');
   row << ',' << r.mtre << ',' << (r.success ? 1 : 0) << ',' << r.prealignSeconds << ',' << r.maskSeconds << ','
-      << r.fineSeconds << ',' << r.totalSeconds << ',' << r.drrCount << ',' << r.evaluations << ',' << reasons;
+      << r.fineSeconds << ',' << r.totalSeconds << ',' << r.drrCount << ',' << r.evaluations << ',' << r.explained << ','
+      << r.residualMM << ',' << r.uncovered << ',' << r.searchApartMM << ',' << r.searchApartDegrees << ',' << reasons;
   return row.str();
 }
 
@@ -191,6 +193,8 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       r.totalSeconds = std::stod(f[i++]);
       r.drrCount = std::stoll(f[i++]);
       r.evaluations = std::stoi(f[i++]);
+      for (double* v : { &r.explained, &r.residualMM, &r.uncovered, &r.searchApartMM, &r.searchApartDegrees })
+        *v = std::stod(f[i++]);
       r.reasons = f[i++];
       records.push_back(r);
     }

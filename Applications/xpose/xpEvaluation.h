@@ -26,6 +26,9 @@ struct TrialRecord
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
   long long drrCount = 0;
   int evaluations = 0;
+  /** The gate's measures (worst view), to calibrate it: MI / H(X-ray), 2D residual (mm),
+   *  uncovered fraction, and how far apart the two searches ended (mm, degrees). */
+  double explained = 0.0, residualMM = 0.0, uncovered = 0.0, searchApartMM = 0.0, searchApartDegrees = 0.0;
   std::string reasons;               ///< the gate's reasons, ';'-separated
 };
 

@@ -78,7 +78,7 @@ double ProjectedRotation(const XRayView& view, const Eigen::Vector3d& isocenter,
 } // namespace
 
 Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, int columns, int rows,
-  const Eigen::Vector2d& center, const uint8_t* fixedMask, int bins)
+  const Eigen::Vector2d& center, const uint8_t* fixedMask, int bins, double initialStepPixels)
 {
   const size_t pixels = static_cast<size_t>(columns) * rows;
   if (fixed.size() != pixels || moving.size() != pixels)
@@ -106,7 +106,8 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
   const double reach = 0.25 * std::min(columns, rows);
   optimizer.set_lower_bounds({ -reach, -reach, -20.0 });
   optimizer.set_upper_bounds({ reach, reach, 20.0 });
-  optimizer.set_initial_step({ 0.03 * columns, 0.03 * columns, 2.0 });
+  const double step = initialStepPixels > 0.0 ? initialStepPixels : 0.03 * columns;
+  optimizer.set_initial_step({ step, step, initialStepPixels > 0.0 ? 0.5 : 2.0 });
   optimizer.set_xtol_abs({ 0.05, 0.05, 0.02 });
   optimizer.set_maxeval(400);
   std::vector<double> x = { 0.0, 0.0, 0.0 };

@@ -29,10 +29,12 @@ struct Motion2D
 /**
  * Registers `moving` onto `fixed` (both columns x rows, 12-bit, row 0 first): the motion T such
  * that fixed(p) ~ moving(T^-1 p), maximising MI over pixels valid in `fixedMask` (null = all)
- * whose source lies inside `moving`. Rotation is about `center`.
+ * whose source lies inside `moving`. Rotation is about `center`. The search's first steps are
+ * `initialStepPixels` (0: 3 % of the width, for a motion still to find) and 2 degrees.
  */
 VTKXPREGISTRATION_EXPORT Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving,
-  int columns, int rows, const Eigen::Vector2d& center, const uint8_t* fixedMask = nullptr, int bins = 32);
+  int columns, int rows, const Eigen::Vector2d& center, const uint8_t* fixedMask = nullptr, int bins = 32,
+  double initialStepPixels = 0.0);
 
 /**
  * The 3D misalignment increment (about `isocenter`) whose projections best explain the 2D motions

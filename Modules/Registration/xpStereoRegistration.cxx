@@ -361,11 +361,15 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
         Format(": %.0f %% of the valid pixels show anatomy where the CT has none at the result (> %.0f %%): the CT does "
                "not cover what the X-ray shows; a ROI around the anatomy the CT covers can exclude the rest",
           100.0 * uncovered, 100.0 * settings.maxUncovered));
-    // A view whose own 2D registration still wants to move disagrees with the 3D result.
+    // A view whose own 2D registration still wants to move disagrees with the 3D result. Its
+    // first steps are half the residual allowed: steps of the pre-alignment's size miss the
+    // narrow optimum of high-passed levels and the search shrinks back onto its start.
+    const double mmPerPixel =
+      item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() / item.view.SourceToPanelDistance();
     const Motion2D residual = Register2D(fine.XRayLevels(v), fine.LastDRRLevels(v), item.view.Columns(), item.view.Rows(),
-      item.view.Project(isocenter), item.mask.data(), settings.bins);
-    const double shiftMM = residual.shift.norm() * item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() /
-      item.view.SourceToPanelDistance();
+      item.view.Project(isocenter), item.mask.data(), settings.bins, 0.5 * settings.maxViewResidual / mmPerPixel);
+    const double shiftMM = residual.shift.norm() * mmPerPixel;
+    result.viewResidualMM.push_back(shiftMM);
     if (!(shiftMM <= settings.maxViewResidual && std::abs(residual.rotation) <= 1.0))
       result.reasons.push_back("view " + item.view.name +
         Format(" disagrees with the 3D result: residual %.2f mm, %.2f degrees in 2D", shiftMM, residual.rotation));

@@ -82,6 +82,7 @@ struct StereoRegistrationResult
   std::vector<double> mutualInformation; ///< per view at the result
   std::vector<double> explained;         ///< MI / H(X-ray) per view
   std::vector<double> uncovered;         ///< per view: valid pixels showing anatomy where the CT has none
+  std::vector<double> viewResidualMM;    ///< per view: its own 2D registration's remaining shift (mm at the isocentre)
   std::vector<double> validFraction;     ///< of each mask
   std::vector<std::vector<uint8_t>> masks;     ///< the masks used, in the DRR planes
   std::vector<std::vector<float>> entropyMaps; ///< empty without entropy masks
