@@ -17,6 +17,7 @@ run() { # NAME CT SIZE TRIALS MIN MAX SEED ARGS...
   local name=$1 ct=$2 size=$3 trials=$4 min=$5 max=$6 seed=$7
   shift 7
   local dir=eval/accuracy-$name
+  rm -rf "$dir" # a fresh run: evaluate would resume from an earlier run's trials
   "$xpose" evaluate --ct "$ct" --geometry "$geometry" --size "$size" --scenario clinical --approaches B \
     --trials "$trials" --min-translation "$min" --max-translation "$max" --seed "$seed" "$@" --out-dir "$dir" > "$dir.log"
   local summary bias
@@ -49,6 +50,8 @@ if [ "$what" = ablation ] || [ "$what" = all ]; then
   for effect in spectrum pixel-area table couch scatter blur quantum-noise electronic-noise heel log truncation; do
     run "without-$effect" "$pelvis" 512x384 "$rowTrials" 1 20 3 --without "$effect"
   done
+  # Scatter's fall-off where the body ends at the CT's end slices: the two effects together.
+  run "without-truncation,scatter" "$pelvis" 512x384 "$rowTrials" 1 20 3 --without truncation scatter
   run "registration-keep-table" "$pelvis" 512x384 "$rowTrials" 1 20 3 --keep-table
   for step in levels high-pass coverage levels,high-pass,coverage; do
     run "registration-without-$step" "$pelvis" 512x384 "$rowTrials" 1 20 3 --registration-off "$step"
