@@ -88,15 +88,14 @@ int RunBenchDRR(const BenchOptions& options)
   {
     throw InputError("--repetitions", "must be at least 1");
   }
-  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.geometry, "", 0.0193, "trilinear", 0.0);
+  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.geometry, "", WaterAttenuationPerMM, "trilinear", 0.0);
   vtkImageData* ct = setup.ct.image;
   int dims[3];
   ct->GetDimensions(dims);
   const Clock::time_point prepare = Clock::now();
-  Scene scene{ std::move(*MakeAttenuationVolume(ct, 0.0193)), Eigen::Isometry3d::Identity(), setup.geometry.views };
+  Scene scene{ std::move(*MakeAttenuationVolume(ct, WaterAttenuationPerMM)), Eigen::Isometry3d::Identity(), setup.geometry.views };
   const double prepareSeconds = std::chrono::duration<double>(Clock::now() - prepare).count();
-  scene.ctToRoom = PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), ImageCenter(ct),
-    setup.geometry.isocenter);
+  scene.ctToRoom = setup.patient.PlannedCTToRoom(ImageCenter(ct));
 
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::printf("xpose bench drr\nCT: %s, %d x %d x %d voxels; attenuation volume built in %.3f s, %.0f %% of %d^3 blocks "

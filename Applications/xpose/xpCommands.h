@@ -9,6 +9,8 @@
 #ifndef xpCommands_h
 #define xpCommands_h
 
+#include "xpAttenuationVolume.h" // WaterAttenuationPerMM
+
 #include <Eigen/Core>
 
 #include <functional>
@@ -44,7 +46,7 @@ struct DRROptions
   std::string maskDirectory;  ///< holds mask_NAME.png per imager (non-zero = render)
   std::string method = "trilinear";
   double stepSize = 0.0;      ///< mm; 0 = smallest voxel spacing
-  double muWater = 0.0193;    ///< 1/mm
+  double muWater = WaterAttenuationPerMM; ///< 1/mm
   int threads = 0;            ///< 0 = all cores
   std::string outputDirectory;
 };
@@ -98,7 +100,7 @@ struct RegisterOptions
   bool entropyMask = true;
   std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
   std::string isocenterInCT;
-  double muWater = 0.0193;
+  double muWater = WaterAttenuationPerMM;
   bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
   int bins = 32;
   int maxEvaluations = 400;

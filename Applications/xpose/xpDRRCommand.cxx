@@ -104,13 +104,11 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
   }
   setup.filter = vtkSmartPointer<vtkXPDRRFilter>::New();
   setup.filter->SetInputData(setup.ct.image);
-  setup.filter->SetPatientPosition(ParsePatientPosition(setup.ct.patientPosition, ctPath));
-  setup.filter->SetRoomIsocenter(setup.geometry.isocenter.data());
+  setup.patient.position = ParsePatientPosition(setup.ct.patientPosition, ctPath);
+  setup.patient.roomIsocenter = setup.geometry.isocenter;
   if (!isocenterInCT.empty())
-  {
-    setup.filter->SetIsocenterInCT(ParsePoint(isocenterInCT, "--iso-ct").data());
-    setup.filter->UseCTCenterAsIsocenterOff();
-  }
+    setup.patient.isocenterInCT = ParsePoint(isocenterInCT, "--iso-ct");
+  setup.filter->SetPatientSetup(setup.patient);
   setup.filter->SetMuWater(muWater);
   setup.filter->SetMethod(method == "siddon" ? 1 : 0);
   setup.filter->SetStepSize(stepSize);

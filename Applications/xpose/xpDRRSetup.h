@@ -17,6 +17,7 @@ struct DRRSetup
 {
   CTVolume ct;
   StereoGeometry geometry;
+  PatientSetup patient;
   vtkSmartPointer<vtkXPDRRFilter> filter;
 };
 

@@ -251,10 +251,10 @@ int RunEvaluate(const EvaluateOptions& options)
   const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
   ValidateStereoGeometry(geometry, options.geometry);
   const CTVolume ct = ReadCTVolume(options.ct, options.series);
-  const PatientPosition position = ParsePatientPosition(ct.patientPosition, options.ct);
-  const Eigen::Vector3d isoInCT = ImageCenter(ct.image);
+  const PatientSetup patient{ ParsePatientPosition(ct.patientPosition, options.ct), ImageCenter(ct.image), geometry.isocenter };
+  const Eigen::Vector3d isoInCT = *patient.isocenterInCT;
   const Eigen::Vector3d& roomIso = geometry.isocenter;
-  const Eigen::Isometry3d planned = PlannedCTToRoom(position, isoInCT, roomIso);
+  const Eigen::Isometry3d planned = patient.PlannedCTToRoom(isoInCT);
   const int factor = RegistrationShrinkFactor(geometry.views, options.size);
   const std::string size = std::to_string(geometry.views[0].Columns() / factor) + "x" + std::to_string(geometry.views[0].Rows() / factor);
 
@@ -267,7 +267,7 @@ int RunEvaluate(const EvaluateOptions& options)
   if (clinical)
     physics = std::make_unique<XRayPhysicsSimulator>(ct.image, planned, roomIso, physicsSettings);
   else
-    ownModel = std::make_unique<XRaySimulator>(ct.image, position, isoInCT, roomIso, simulation);
+    ownModel = std::make_unique<XRaySimulator>(ct.image, patient, simulation);
   // Truncated: the X-rays see the whole patient, the registration a planning CT of half its
   // length; clinical: of 80 % of its length.
   vtkSmartPointer<vtkImageData> registrationCT = ct.image;
@@ -279,7 +279,7 @@ int RunEvaluate(const EvaluateOptions& options)
   // too, unless --keep-table. The DRR-model scenarios' X-rays show the table.
   if (clinical && options.removeTable)
     registrationCT = BodyOnly(registrationCT);
-  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(registrationCT, 0.0193);
+  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(registrationCT, WaterAttenuationPerMM);
   const std::vector<Eigen::Vector3d> targets = TargetPoints(ct.image, isoInCT, planned);
 
   // --- the output folder: settings, then one CSV row per finished registration ---

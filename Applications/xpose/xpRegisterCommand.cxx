@@ -117,8 +117,8 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
     inputs.views.push_back(std::move(item));
   }
   vtkImageData* ct = setup.ct.image;
-  inputs.isoInCT = options.isocenterInCT.empty() ? ImageCenter(ct) : ParsePoint(options.isocenterInCT, "--iso-ct");
-  inputs.planned = PlannedCTToRoom(ParsePatientPosition(setup.ct.patientPosition, options.ct), inputs.isoInCT, setup.geometry.isocenter);
+  inputs.isoInCT = setup.patient.IsocenterInCT(ImageCenter(ct));
+  inputs.planned = setup.patient.PlannedCTToRoom(ImageCenter(ct));
   return inputs;
 }
 

@@ -46,9 +46,9 @@ int RunSimulate(const SimulateOptions& options)
   }
   const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
   const CTVolume ct = ReadCTVolume(options.ct, options.series);
-  const Eigen::Vector3d isoInCT =
-    options.isocenterInCT.empty() ? ImageCenter(ct.image) : ParsePoint(options.isocenterInCT, "--iso-ct");
-  const PatientPosition position = ParsePatientPosition(ct.patientPosition, options.ct);
+  PatientSetup patient{ ParsePatientPosition(ct.patientPosition, options.ct), std::nullopt, geometry.isocenter };
+  if (!options.isocenterInCT.empty())
+    patient.isocenterInCT = ParsePoint(options.isocenterInCT, "--iso-ct");
   std::string model;
   std::function<std::vector<uint16_t>(const XRayView&, std::mt19937&)> render;
   std::unique_ptr<XRaySimulator> ownModel;
@@ -59,7 +59,7 @@ int RunSimulate(const SimulateOptions& options)
     for (const std::string& effect : options.without)
       SwitchOff(settings, effect, "--without");
     physics = std::make_unique<XRayPhysicsSimulator>(
-      ct.image, PlannedCTToRoom(position, isoInCT, geometry.isocenter), geometry.isocenter, settings);
+      ct.image, patient.PlannedCTToRoom(ImageCenter(ct.image)), geometry.isocenter, settings);
     render = [&](const XRayView& view, std::mt19937& random) { return physics->Simulate(view, pose, random); };
     model = settings.Describe();
   }
@@ -69,7 +69,7 @@ int RunSimulate(const SimulateOptions& options)
     simulation.noise = options.noise;
     simulation.kvContrast = options.kvContrast;
     simulation.addObjects = options.addObjects;
-    ownModel = std::make_unique<XRaySimulator>(ct.image, position, isoInCT, geometry.isocenter, simulation);
+    ownModel = std::make_unique<XRaySimulator>(ct.image, patient, simulation);
     render = [&](const XRayView& view, std::mt19937& random) { return ownModel->Simulate(view, pose, random); };
     std::ostringstream text;
     text << "{ \"noise\": " << options.noise << ", \"kv_contrast\": " << (options.kvContrast ? "true" : "false")

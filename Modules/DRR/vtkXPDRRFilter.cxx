@@ -34,11 +34,11 @@ void vtkXPDRRFilter::SetView(const xp::XRayView& view)
   this->Modified();
 }
 
-void vtkXPDRRFilter::SetPatientPosition(xp::PatientPosition position)
+void vtkXPDRRFilter::SetPatientSetup(const xp::PatientSetup& setup)
 {
-  if (position != this->Position)
+  if (setup != this->Setup)
   {
-    this->Position = position;
+    this->Setup = setup;
     this->Modified();
   }
 }
@@ -179,10 +179,8 @@ int vtkXPDRRFilter::RequestData(vtkInformation*, vtkInformationVector** inputVec
     const xp::AttenuationVolume& volume = this->Attenuation(ct);
     const Clock::time_point renderStart = Clock::now();
     this->LastPreparationSeconds = std::chrono::duration<double>(renderStart - prepareStart).count();
-    const Eigen::Vector3d isoInCT = this->UseCTCenterAsIsocenter ? xp::ImageCenter(ct) : Eigen::Vector3d(this->IsocenterInCT);
-    const Eigen::Vector3d roomIso(this->RoomIsocenter);
-    const Eigen::Isometry3d ctToRoom =
-      xp::MisalignedCTToRoom(xp::PlannedCTToRoom(this->Position, isoInCT, roomIso), this->Misalignment, roomIso);
+    const Eigen::Isometry3d ctToRoom = xp::MisalignedCTToRoom(
+      this->Setup.PlannedCTToRoom(xp::ImageCenter(ct)), this->Misalignment, this->Setup.roomIsocenter);
 
     vtkImageData* outputs[3];
     for (int port = 0; port < 3; ++port)
@@ -223,10 +221,7 @@ void vtkXPDRRFilter::PrintSelf(ostream& os, vtkIndent indent)
   this->Superclass::PrintSelf(os, indent);
   os << indent << "View: " << this->View.name << " (" << this->View.Columns() << "x" << this->View.Rows() << ")\n";
   os << indent << "OutputSize: " << this->OutputSize[0] << " " << this->OutputSize[1] << "\n";
-  os << indent << "RoomIsocenter: " << this->RoomIsocenter[0] << " " << this->RoomIsocenter[1] << " " << this->RoomIsocenter[2] << "\n";
-  os << indent << "UseCTCenterAsIsocenter: " << this->UseCTCenterAsIsocenter << "\n";
-  os << indent << "IsocenterInCT: " << this->IsocenterInCT[0] << " " << this->IsocenterInCT[1] << " " << this->IsocenterInCT[2] << "\n";
-  os << indent << "PatientPosition: " << xp::ToString(this->Position) << "\n";
+  os << indent << "PatientSetup: " << this->Setup.Describe() << "\n";
   os << indent << "Misalignment: " << this->Misalignment.ToString() << "\n";
   os << indent << "MuWater: " << this->MuWater << "\n";
   os << indent << "StepSize: " << this->StepSize << "\n";

@@ -5,8 +5,7 @@
  * Port 0: the CT (vtkImageData, HU, any scalar type; origin/spacing/DirectionMatrix give LPS mm).
  * Port 1 (optional): a validity mask on the output grid (unsigned char, non-zero = trace the ray).
  *
- * The CT is placed in the room by the patient position and IsocenterInCT (planned set-up,
- * GEOMETRY.md), then moved by the patient Misalignment (mm, degrees). Outputs, all on the panel
+ * The CT is placed in the room by the PatientSetup (planned set-up, GEOMETRY.md), then moved by the patient Misalignment (mm, degrees). Outputs, all on the panel
  * grid with rows bottom-up as VTK stores them and placed in Room coordinates:
  *  - port 0: 12-bit transmission round(4095 exp(-integral)) as unsigned short (0 where masked);
  *  - port 1: the line integral of mu as float (0 where masked);
@@ -20,16 +19,12 @@
 #include "vtkImageAlgorithm.h"
 #include "vtkXPDRRModule.h"
 
+#include "xpAttenuationVolume.h"
 #include "xpPose.h"
 #include "xpRayCaster.h"
 #include "xpXRayView.h"
 
 #include <memory>
-
-namespace xp
-{
-class AttenuationVolume;
-}
 
 namespace xp
 {
@@ -54,24 +49,9 @@ public:
   void SetView(const xp::XRayView& view);
   const xp::XRayView& GetView() const { return this->View; }
 
-  ///@{
-  /** Room isocentre (mm), from the geometry file. */
-  vtkSetVector3Macro(RoomIsocenter, double);
-  vtkGetVector3Macro(RoomIsocenter, double);
-  ///@}
-
-  ///@{
-  /** CT point (LPS mm) placed at the isocentre; used when UseCTCenterAsIsocenter is off. */
-  vtkSetVector3Macro(IsocenterInCT, double);
-  vtkGetVector3Macro(IsocenterInCT, double);
-  vtkSetMacro(UseCTCenterAsIsocenter, bool);
-  vtkGetMacro(UseCTCenterAsIsocenter, bool);
-  vtkBooleanMacro(UseCTCenterAsIsocenter, bool);
-  ///@}
-
-  /** DICOM patient position of the CT (default HFS). */
-  void SetPatientPosition(xp::PatientPosition position);
-  xp::PatientPosition GetPatientPosition() const { return this->Position; }
+  /** How the CT is placed in the room (default: HFS, its centre at a room isocentre at 0). */
+  void SetPatientSetup(const xp::PatientSetup& setup);
+  const xp::PatientSetup& GetPatientSetup() const { return this->Setup; }
 
   /** Patient misalignment in Room terms (GEOMETRY.md): translation mm, pitch/roll/yaw degrees. */
   void SetMisalignment(const xp::Pose& pose);
@@ -128,11 +108,8 @@ private:
 
   xp::XRayView View;
   xp::Pose Misalignment;
-  xp::PatientPosition Position = xp::PatientPosition::HFS;
-  double RoomIsocenter[3] = { 0, 0, 0 };
-  double IsocenterInCT[3] = { 0, 0, 0 };
-  bool UseCTCenterAsIsocenter = true;
-  double MuWater = 0.0193;
+  xp::PatientSetup Setup;
+  double MuWater = xp::WaterAttenuationPerMM;
   double StepSize = 0.0;
   int Method = 0;
   int OutputSize[2] = { 0, 0 };

@@ -27,6 +27,10 @@
 namespace xp
 {
 
+/** Linear attenuation of water (1/mm) at the DRR's effective energy, about 70 keV: the DRR
+ *  model's default, mu = WaterAttenuationPerMM (1 + HU/1000). */
+constexpr double WaterAttenuationPerMM = 0.0193;
+
 class VTKXPDRR_EXPORT AttenuationVolume
 {
 public:

@@ -190,6 +190,39 @@ Eigen::Isometry3d PlannedCTToRoom(
   return transform;
 }
 
+Eigen::Vector3d PatientSetup::IsocenterInCT(const Eigen::Vector3d& ctCenter) const
+{
+  return this->isocenterInCT ? *this->isocenterInCT : ctCenter;
+}
+
+Eigen::Isometry3d PatientSetup::PlannedCTToRoom(const Eigen::Vector3d& ctCenter) const
+{
+  return xp::PlannedCTToRoom(this->position, this->IsocenterInCT(ctCenter), this->roomIsocenter);
+}
+
+std::string PatientSetup::Describe() const
+{
+  std::ostringstream text;
+  const auto point = [&](const Eigen::Vector3d& p) { text << "(" << p[0] << ", " << p[1] << ", " << p[2] << ")"; };
+  text << ToString(this->position) << ", ";
+  if (this->isocenterInCT)
+  {
+    text << "CT point ";
+    point(*this->isocenterInCT);
+  }
+  else
+    text << "the CT's centre";
+  text << " at room ";
+  point(this->roomIsocenter);
+  return text.str();
+}
+
+bool PatientSetup::operator==(const PatientSetup& other) const
+{
+  return this->position == other.position && this->isocenterInCT == other.isocenterInCT &&
+    this->roomIsocenter == other.roomIsocenter;
+}
+
 Eigen::Isometry3d MisalignedCTToRoom(const Eigen::Isometry3d& plannedCTToRoom, const Pose& misalignment,
   const Eigen::Vector3d& roomIsocenter)
 {

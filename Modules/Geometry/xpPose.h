@@ -13,6 +13,7 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <optional>
 #include <string>
 
 namespace xp
@@ -74,6 +75,26 @@ VTKXPGEOMETRY_EXPORT Eigen::Matrix3d PatientToRoomRotation(PatientPosition posit
  */
 VTKXPGEOMETRY_EXPORT Eigen::Isometry3d PlannedCTToRoom(
   PatientPosition position, const Eigen::Vector3d& isoInCT, const Eigen::Vector3d& roomIsocenter);
+
+/**
+ * The planned set-up of a patient: how the CT sits in the room before any misalignment. Every
+ * command and filter that places a CT computes its planned transform here.
+ */
+struct VTKXPGEOMETRY_EXPORT PatientSetup
+{
+  PatientPosition position = PatientPosition::HFS;      ///< the CT's DICOM Patient Position
+  std::optional<Eigen::Vector3d> isocenterInCT;          ///< LPS mm; none = the CT's centre
+  Eigen::Vector3d roomIsocenter = Eigen::Vector3d::Zero(); ///< Room mm, the geometry's isocentre
+
+  /** The CT point at the isocentre: isocenterInCT, or `ctCenter` when none is set. */
+  Eigen::Vector3d IsocenterInCT(const Eigen::Vector3d& ctCenter) const;
+  /** PlannedCTToRoom of this set-up for a CT whose centre is `ctCenter`. */
+  Eigen::Isometry3d PlannedCTToRoom(const Eigen::Vector3d& ctCenter) const;
+  /** "HFS, CT point (x, y, z) at room (x, y, z)" or "..., the CT's centre at ...". */
+  std::string Describe() const;
+  bool operator==(const PatientSetup& other) const;
+  bool operator!=(const PatientSetup& other) const { return !(*this == other); }
+};
 
 /** CTToRoom of a misaligned patient: the misalignment applied after the planned set-up. */
 VTKXPGEOMETRY_EXPORT Eigen::Isometry3d MisalignedCTToRoom(const Eigen::Isometry3d& plannedCTToRoom,

@@ -27,10 +27,13 @@ void vtkXPStereoRegistrationFilter::SetGeometry(const xp::StereoGeometry& geomet
   this->Modified();
 }
 
-void vtkXPStereoRegistrationFilter::SetPatientPosition(xp::PatientPosition position)
+void vtkXPStereoRegistrationFilter::SetPatientSetup(const xp::PatientSetup& setup)
 {
-  this->Position = position;
-  this->Modified();
+  if (setup != this->Setup)
+  {
+    this->Setup = setup;
+    this->Modified();
+  }
 }
 
 void vtkXPStereoRegistrationFilter::SetSettings(const xp::StereoRegistrationSettings& settings)
@@ -77,8 +80,11 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
     xp::ValidateStereoGeometry(this->Geometry, "registration geometry");
     vtkImageData* ct = vtkImageData::GetData(inputVector[0]);
     const std::unique_ptr<xp::AttenuationVolume> volume = xp::MakeAttenuationVolume(ct, this->MuWater);
-    const Eigen::Vector3d isoInCT = this->UseCTCenterAsIsocenter ? xp::ImageCenter(ct) : Eigen::Vector3d(this->IsocenterInCT);
-    const Eigen::Isometry3d planned = xp::PlannedCTToRoom(this->Position, isoInCT, this->Geometry.isocenter);
+    if ((this->Setup.roomIsocenter - this->Geometry.isocenter).norm() > 1e-6)
+    {
+      throw xp::InputError("patient set-up: room isocentre", "differs from the geometry's isocentre");
+    }
+    const Eigen::Isometry3d planned = this->Setup.PlannedCTToRoom(xp::ImageCenter(ct));
     std::vector<xp::RegistrationView> views;
     for (int v = 0; v < 2; ++v)
     {
@@ -138,8 +144,7 @@ void vtkXPStereoRegistrationFilter::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "Geometry: " << this->Geometry.name << " (" << this->Geometry.views.size() << " views)\n";
-  os << indent << "PatientPosition: " << xp::ToString(this->Position) << "\n";
-  os << indent << "UseCTCenterAsIsocenter: " << this->UseCTCenterAsIsocenter << "\n";
+  os << indent << "PatientSetup: " << this->Setup.Describe() << "\n";
   os << indent << "MuWater: " << this->MuWater << "\n";
   os << indent << "EntropyMask: " << this->Settings.entropyMask << ", bins " << this->Settings.bins
      << ", max evaluations " << this->Settings.maxEvaluations << "\n";

@@ -35,15 +35,9 @@ public:
   void SetGeometry(const xp::StereoGeometry& geometry);
   const xp::StereoGeometry& GetGeometry() const { return this->Geometry; }
 
-  void SetPatientPosition(xp::PatientPosition position);
-  ///@{
-  /** CT point (LPS mm) at the isocentre when UseCTCenterAsIsocenter is off. */
-  vtkSetVector3Macro(IsocenterInCT, double);
-  vtkGetVector3Macro(IsocenterInCT, double);
-  vtkSetMacro(UseCTCenterAsIsocenter, bool);
-  vtkGetMacro(UseCTCenterAsIsocenter, bool);
-  vtkBooleanMacro(UseCTCenterAsIsocenter, bool);
-  ///@}
+  /** How the CT is placed in the room; its room isocentre must be the geometry's. */
+  void SetPatientSetup(const xp::PatientSetup& setup);
+  const xp::PatientSetup& GetPatientSetup() const { return this->Setup; }
   ///@{
   /** Attenuation of water (1/mm) for the DRRs. */
   vtkSetClampMacro(MuWater, double, 1e-6, 1.0);
@@ -71,10 +65,8 @@ private:
   void operator=(const vtkXPStereoRegistrationFilter&) = delete;
 
   xp::StereoGeometry Geometry;
-  xp::PatientPosition Position = xp::PatientPosition::HFS;
-  double IsocenterInCT[3] = { 0, 0, 0 };
-  bool UseCTCenterAsIsocenter = true;
-  double MuWater = 0.0193;
+  xp::PatientSetup Setup;
+  double MuWater = xp::WaterAttenuationPerMM;
   xp::StereoRegistrationSettings Settings;
   xp::StereoRegistrationResult Result;
 };

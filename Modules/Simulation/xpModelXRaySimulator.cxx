@@ -57,8 +57,7 @@ void AddObjects(std::vector<float>& lineIntegral, int columns, int rows)
 
 } // namespace
 
-XRaySimulator::XRaySimulator(vtkImageData* ct, PatientPosition position, const Eigen::Vector3d& isocenterInCT,
-  const Eigen::Vector3d& roomIsocenter, const XRaySimulation& simulation)
+XRaySimulator::XRaySimulator(vtkImageData* ct, const PatientSetup& patient, const XRaySimulation& simulation)
   : Simulation(simulation)
   , CT(simulation.kvContrast ? KVContrastCT(ct) : vtkSmartPointer<vtkImageData>(ct))
   , Filter(vtkSmartPointer<vtkXPDRRFilter>::New())
@@ -68,11 +67,9 @@ XRaySimulator::XRaySimulator(vtkImageData* ct, PatientPosition position, const E
     throw InputError("--noise", "must be 0 or more (12-bit grey levels at full transmission)");
   }
   this->Filter->SetInputData(this->CT);
-  this->Filter->SetPatientPosition(position);
-  this->Filter->SetIsocenterInCT(isocenterInCT.data());
-  this->Filter->UseCTCenterAsIsocenterOff();
-  this->Filter->SetRoomIsocenter(roomIsocenter.data());
-  this->Filter->SetMuWater(simulation.kvContrast ? 0.0205 : 0.0193);
+  this->Filter->SetPatientSetup(patient);
+  // kV contrast: bone attenuates more than in the DRR model, and water a little more too.
+  this->Filter->SetMuWater(simulation.kvContrast ? 0.0205 : WaterAttenuationPerMM);
 }
 
 std::vector<uint16_t> XRaySimulator::Simulate(const XRayView& view, const Pose& misalignment, std::mt19937& random)

@@ -37,8 +37,7 @@ struct XRaySimulation
 class VTKXPSIMULATION_EXPORT XRaySimulator
 {
 public:
-  XRaySimulator(vtkImageData* ct, PatientPosition position, const Eigen::Vector3d& isocenterInCT,
-    const Eigen::Vector3d& roomIsocenter, const XRaySimulation& simulation);
+  XRaySimulator(vtkImageData* ct, const PatientSetup& patient, const XRaySimulation& simulation);
 
   std::vector<uint16_t> Simulate(const XRayView& view, const Pose& misalignment, std::mt19937& random);
 

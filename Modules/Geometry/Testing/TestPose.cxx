@@ -87,6 +87,28 @@ TEST(PatientPosition, HeadFirstSupineMapsLeftSuperiorAnterior)
   ExpectNear(ctToRoom * Vector3d(100, 190, 300), Vector3d(0, 0, 10)); // anterior -> +Z (up)
 }
 
+TEST(PatientSetup, PlacesItsIsocentreOrTheCTCentreAtTheRoomIsocentre)
+{
+  xp::PatientSetup setup;
+  setup.roomIsocenter = Vector3d(1, 2, 3);
+  const Vector3d ctCenter(100, 200, 300);
+  // No isocentre given: the CT's centre goes to the room isocentre, HFS axes.
+  ExpectNear(setup.PlannedCTToRoom(ctCenter) * ctCenter, Vector3d(1, 2, 3));
+  ExpectNear(setup.PlannedCTToRoom(ctCenter) * Vector3d(100, 190, 300), Vector3d(1, 2, 13)); // anterior -> +Z
+  // A given isocentre wins over the centre, and the position turns the axes.
+  setup.isocenterInCT = Vector3d(50, 60, 70);
+  setup.position = xp::PatientPosition::FFS;
+  const Eigen::Isometry3d planned = setup.PlannedCTToRoom(ctCenter);
+  ExpectNear(planned * Vector3d(50, 60, 70), Vector3d(1, 2, 3));
+  ExpectNear(planned * Vector3d(50, 60, 80), Vector3d(1, -8, 3)); // superior -> -Y, feet first
+  ExpectNear(setup.IsocenterInCT(ctCenter), Vector3d(50, 60, 70));
+  xp::PatientSetup other = setup;
+  EXPECT_EQ(other, setup);
+  other.isocenterInCT.reset();
+  EXPECT_NE(other, setup) << "the filters' modification time depends on this";
+  EXPECT_NE(setup.Describe().find("FFS"), std::string::npos);
+}
+
 TEST(PatientPosition, OtherPositionsAreProperRotations)
 {
   using P = xp::PatientPosition;

@@ -29,7 +29,7 @@ struct Scene
     Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
     indexToCT.linear() = ct.direction * ct.spacing.asDiagonal();
     indexToCT.translation() = ct.origin;
-    volume = xp::AttenuationVolume(ct.hounsfield.data(), ct.dimensions, indexToCT, 0.0193);
+    volume = xp::AttenuationVolume(ct.hounsfield.data(), ct.dimensions, indexToCT, xp::WaterAttenuationPerMM);
     const Eigen::Vector3d centre = indexToCT * (0.5 * (ct.dimensions.cast<double>() - Eigen::Vector3d::Ones()));
     planned = xp::PlannedCTToRoom(xp::PatientPosition::HFS, centre, Eigen::Vector3d::Zero());
   }
@@ -202,6 +202,18 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
   EXPECT_NEAR(result.correction.translation[0], 4.0, 0.6) << "correction undoes a -4 mm lateral shift";
   EXPECT_EQ(registration->GetOutput(0)->GetScalarType(), VTK_UNSIGNED_SHORT);
   EXPECT_EQ(registration->GetOutput(2)->GetDimensions()[0], 160);
+
+  // A patient set-up whose room isocentre is not the geometry's would place the CT elsewhere
+  // than the X-rays see it: refused, and the result says why.
+  xp::PatientSetup elsewhere;
+  elsewhere.roomIsocenter = Eigen::Vector3d(0, 0, 5);
+  registration->SetPatientSetup(elsewhere);
+  registration->GlobalWarningDisplayOff();
+  registration->Update();
+  registration->GlobalWarningDisplayOn();
+  EXPECT_FALSE(registration->GetResult().ok);
+  ASSERT_FALSE(registration->GetResult().reasons.empty());
+  EXPECT_NE(registration->GetResult().reasons.front().find("room isocentre"), std::string::npos);
 }
 
 namespace
