@@ -251,10 +251,10 @@ int RunEvaluate(const EvaluateOptions& options)
   const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
   ValidateStereoGeometry(geometry, options.geometry);
   const CTVolume ct = ReadCTVolume(options.ct, options.series);
-  const PatientSetup patient{ ParsePatientPosition(ct.patientPosition, options.ct), ImageCenter(ct.image), geometry.isocenter };
-  const Eigen::Vector3d isoInCT = *patient.isocenterInCT;
-  const Eigen::Vector3d& roomIso = geometry.isocenter;
-  const Eigen::Isometry3d planned = patient.PlannedCTToRoom(isoInCT);
+  const PatientSetup patient{ ParsePatientPosition(ct.patientPosition, options.ct), std::nullopt, geometry.isocenter };
+  const Eigen::Vector3d isoInCT = patient.IsocenterInCT(ImageCenter(ct.image));
+  const Eigen::Vector3d& roomIso = patient.roomIsocenter;
+  const Eigen::Isometry3d planned = patient.PlannedCTToRoom(ImageCenter(ct.image));
   const int factor = RegistrationShrinkFactor(geometry.views, options.size);
   const std::string size = std::to_string(geometry.views[0].Columns() / factor) + "x" + std::to_string(geometry.views[0].Rows() / factor);
 
