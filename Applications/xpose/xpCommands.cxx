@@ -84,6 +84,21 @@ void CheckLimit(double value, double low, double high, const std::string& option
   }
 }
 
+void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
+{
+  CheckLimit(settings.bins, 8, 256, "--bins");
+  CheckLimit(settings.maxEvaluations, 10, 100000, "--max-evaluations");
+  CheckLimit(settings.fineHighPassMM, 0.0, 500.0, "--high-pass-mm");
+  CheckLimit(settings.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");
+  CheckLimit(settings.maxTranslation, 0.1, 500.0, "--max-translation");
+  CheckLimit(settings.maxRotation, 0.1, 180.0, "--max-rotation");
+  CheckLimit(settings.minExplained, 0.0, 1.0, "--min-explained");
+  CheckLimit(settings.maxViewResidual, 0.01, 100.0, "--max-view-residual");
+  CheckLimit(settings.maxUncovered, 0.001, 1.0, "--max-uncovered");
+  CheckLimit(settings.maxSearchDisagreementMM, 0.0, 100.0, "--max-search-apart-mm");
+  CheckLimit(settings.maxSearchDisagreementDegrees, 0.001, 45.0, "--max-search-apart-deg");
+}
+
 void UseThreads(int threads)
 {
   if (threads < 0)

@@ -10,6 +10,7 @@
 #define xpCommands_h
 
 #include "xpAttenuationVolume.h" // WaterAttenuationPerMM
+#include "xpStereoRegistration.h"   // StereoRegistrationSettings
 
 #include <Eigen/Core>
 
@@ -97,17 +98,11 @@ struct RegisterOptions
   std::string geometry;
   std::vector<std::string> xrays;   ///< one per imager, in the geometry's order
   std::vector<std::string> rois;    ///< optional, one per X-ray
-  bool entropyMask = true;
   std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
   std::string isocenterInCT;
   double muWater = WaterAttenuationPerMM;
   bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
-  int bins = 32;
-  int maxEvaluations = 400;
-  double maxTranslation = 50.0;     ///< quality gate: largest correction accepted (mm)
-  double maxRotation = 10.0;        ///< and degrees
-  double minExplained = 0.15;       ///< MI / H(X-ray) a view must reach at the result
-  double maxViewResidual = 1.0;     ///< mm a view's own 2D registration may still want to move
+  StereoRegistrationSettings settings; ///< the method and its quality gate, as the options set them
   int threads = 0;
   std::string outputDirectory;
   std::string reportDirectory;      ///< when set, the visual report is written there too
@@ -135,8 +130,7 @@ struct EvaluateOptions
   bool removeTable = true;          ///< register against the CT without its table
   /** Registration steps switched off, to measure what each does: levels, high-pass, coverage. */
   std::vector<std::string> registrationOff;
-  double highPassMM = -1.0;         ///< the refinement's high-pass (mm on the panel); < 0: the default
-  double coverageMarginMM = -1.0;   ///< the coverage mask's margin (mm); < 0: the default
+  StereoRegistrationSettings settings; ///< each approach's, but for the entropy mask
   std::vector<std::string> approaches{ "A", "B" };
   double noise = 30.0;              ///< quantum noise of the noisy scenarios, grey levels
   double successMTRE = 1.0;         ///< mm
@@ -168,6 +162,9 @@ Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field);
 
 /** Throws xp::InputError naming `option` unless low <= value <= high (NaN fails). */
 void CheckLimit(double value, double low, double high, const std::string& option);
+
+/** Checks the registration settings the options set, naming the option of a value out of range. */
+void CheckRegistrationSettings(const StereoRegistrationSettings& settings);
 
 /** Routes VTK's warnings and errors to stderr as single plain lines (no colour, no pipeline
  *  dump); the "returned failure" messages that follow an error xpose reports itself are dropped. */

@@ -9,8 +9,10 @@
 #include "xpError.h"
 #include "xpImageGeometry.h"
 #include "xpStereoGeometry.h"
-#include "xpStereoRegistration.h"
+#include "vtkXPStereoRegistrationFilter.h"
+#include "xpImageRows.h"
 #include "xpVolumeIO.h"
+#include <vtkNew.h>
 
 #include <vtkDataArray.h>
 #include <vtkImageData.h>
@@ -149,7 +151,11 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"min_translation_mm\": " << o.minTranslation << ",\n  \"max_translation_mm\": " << o.maxTranslation
        << ",\n  \"max_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
-       << ",\n  \"high_pass_mm\": " << o.highPassMM << ",\n  \"coverage_margin_mm\": " << o.coverageMarginMM
+       << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
+       << ",\n  \"bins\": " << o.settings.bins << ",\n  \"max_evaluations\": " << o.settings.maxEvaluations
+       << ",\n  \"gate\": {\"min_explained\": " << o.settings.minExplained << ", \"max_view_residual_mm\": "
+       << o.settings.maxViewResidual << ", \"max_uncovered\": " << o.settings.maxUncovered << ", \"max_search_apart_mm\": "
+       << o.settings.maxSearchDisagreementMM << ", \"max_search_apart_deg\": " << o.settings.maxSearchDisagreementDegrees << "}"
        << ",\n  \"remove_table\": " << (o.removeTable && o.scenario == "clinical" ? "true" : "false") << ",\n  \"x_rays\": " << model
        << ",\n  \"success_mtre_mm\": " << o.successMTRE << ",\n  \"target_region\": \"CT voxels above " << TargetHU
        << " HU within " << TargetRadius << " mm of the isocentre\"\n}\n";
@@ -223,7 +229,8 @@ int RunEvaluate(const EvaluateOptions& options)
       throw InputError("--approaches", "expected A (whole image) and/or B (entropy masks), got '" + approach + "'");
   }
 
-  StereoRegistrationSettings registrationSettings;
+  CheckRegistrationSettings(options.settings);
+  StereoRegistrationSettings registrationSettings = options.settings;
   for (const std::string& step : options.registrationOff)
   {
     if (step == "levels")
@@ -234,17 +241,6 @@ int RunEvaluate(const EvaluateOptions& options)
       registrationSettings.coverageMask = false;
     else
       throw InputError("--registration-off", "expected levels, high-pass or coverage, got '" + step + "'");
-  }
-
-  if (options.highPassMM >= 0.0)
-  {
-    CheckLimit(options.highPassMM, 0.0, 500.0, "--high-pass-mm");
-    registrationSettings.fineHighPassMM = options.highPassMM;
-  }
-  if (options.coverageMarginMM >= 0.0)
-  {
-    CheckLimit(options.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");
-    registrationSettings.coverageMarginMM = options.coverageMarginMM;
   }
 
   // --- inputs, read once for every trial ---
@@ -279,7 +275,16 @@ int RunEvaluate(const EvaluateOptions& options)
   // too, unless --keep-table. The DRR-model scenarios' X-rays show the table.
   if (clinical && options.removeTable)
     registrationCT = BodyOnly(registrationCT);
-  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(registrationCT, WaterAttenuationPerMM);
+  // The registration filter keeps the CT's attenuation between trials; the X-rays reach it at the
+  // registration size (the physics simulator renders each binned pixel's area).
+  vtkNew<vtkXPStereoRegistrationFilter> registration;
+  registration->SetCTData(registrationCT);
+  StereoGeometry registrationGeometry = geometry;
+  for (XRayView& panel : registrationGeometry.views)
+    panel = panel.Resampled(panel.Columns() / factor, panel.Rows() / factor);
+  registration->SetGeometry(registrationGeometry);
+  // The isocentre stays where the whole CT puts it: the cut CT's centre is elsewhere.
+  registration->SetPatientSetup({ patient.position, isoInCT, roomIso });
   const std::vector<Eigen::Vector3d> targets = TargetPoints(ct.image, isoInCT, planned);
 
   // --- the output folder: settings, then one CSV row per finished registration ---
@@ -362,7 +367,14 @@ int RunEvaluate(const EvaluateOptions& options)
       StereoRegistrationSettings settingsOfApproach = registrationSettings;
       settingsOfApproach.entropyMask = approach == "B";
       const Clock::time_point registrationStart = Clock::now();
-      const StereoRegistrationResult result = RegisterStereo(*volume, planned, roomIso, views, settingsOfApproach);
+      registration->RemoveAllXRaysAndROIs();
+      for (const RegistrationView& item : views)
+        registration->AddXRayData(ImageFromRowsTopFirst(item.xray, item.view.Columns(), item.view.Rows()));
+      registration->SetSettings(settingsOfApproach);
+      registration->Update();
+      const StereoRegistrationResult& result = registration->GetResult();
+      if (!result.failures.empty() && result.failures.front().code == GateCode::InvalidInput)
+        throw InputError("registration", result.failures.front().message);
 
       TrialRecord r;
       r.trial = trial;
@@ -388,7 +400,7 @@ int RunEvaluate(const EvaluateOptions& options)
       r.uncovered = *std::max_element(result.uncovered.begin(), result.uncovered.end());
       r.searchApartMM = result.searchDisagreementMM;
       r.searchApartDegrees = result.searchDisagreementDegrees;
-      for (const std::string& reason : result.reasons)
+      for (const std::string& reason : result.Reasons())
         r.reasons += (r.reasons.empty() ? "" : "; ") + reason;
       csv << TrialCSVRow(r) << std::endl; // flushed: an interruption keeps every finished registration
       records.push_back(r);

@@ -3,6 +3,38 @@
 
 #include <CLI/CLI.hpp>
 
+namespace
+{
+
+/** The registration method's options, bound to the settings the registration filter takes. */
+void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
+{
+  command->add_option("--bins", settings.bins, "MI histogram bins")->capture_default_str();
+  command->add_option("--max-evaluations", settings.maxEvaluations, "Evaluation limit of each 6-DOF stage")
+    ->capture_default_str();
+  command->add_option("--high-pass-mm", settings.fineHighPassMM,
+    "The refinement removes shading wider than this (sd, mm on the panel; 0: off)")->capture_default_str();
+  command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
+    "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
+}
+
+/** The quality gate's limits (Algorithms.md, "quality gate"). */
+void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
+{
+  command->add_option("--min-explained", settings.minExplained,
+    "Gate: MI / H(X-ray) each view's final DRR must reach")->capture_default_str();
+  command->add_option("--max-view-residual", settings.maxViewResidual,
+    "Gate: mm (at the isocentre) a view's own 2D registration may still move")->capture_default_str();
+  command->add_option("--max-uncovered", settings.maxUncovered,
+    "Gate: fraction of a view's valid pixels that may show anatomy the CT does not cover")->capture_default_str();
+  command->add_option("--max-search-apart-mm", settings.maxSearchDisagreementMM,
+    "Gate: two searches ending farther apart (and as good) fail the result; 0: one search")->capture_default_str();
+  command->add_option("--max-search-apart-deg", settings.maxSearchDisagreementDegrees, "Gate: and degrees")
+    ->capture_default_str();
+}
+
+} // namespace
+
 int main(int argc, char** argv)
 {
   xp::RouteVTKMessages();
@@ -82,15 +114,17 @@ int main(int argc, char** argv)
   registerCommand->add_option("--geometry", reg.geometry, "Stereo geometry JSON")->required();
   registerCommand->add_option("--xray", reg.xrays, "X-ray PNG (12-bit), one per imager in order")->required();
   registerCommand->add_option("--roi", reg.rois, "User ROI PNG per X-ray (non-zero = use)");
-  registerCommand->add_flag("!--no-entropy-mask", reg.entropyMask, "Register the whole image (no entropy mask)");
+  registerCommand->add_flag("!--no-entropy-mask", reg.settings.entropyMask, "Register the whole image (no entropy mask)");
   registerCommand->add_option("--size", reg.size, "Registration resolution COLSxROWS (divides the panel)");
   registerCommand->add_option("--iso-ct", reg.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
   registerCommand->add_flag("--remove-table", reg.removeTable,
     "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
-  registerCommand->add_option("--bins", reg.bins, "MI histogram bins")->capture_default_str();
-  registerCommand->add_option("--max-evaluations", reg.maxEvaluations, "6-DOF evaluation limit")->capture_default_str();
-  registerCommand->add_option("--max-translation", reg.maxTranslation, "Largest accepted correction, mm")->capture_default_str();
-  registerCommand->add_option("--max-rotation", reg.maxRotation, "Largest accepted correction, degrees")->capture_default_str();
+  AddMethodOptions(registerCommand, reg.settings);
+  registerCommand->add_option("--max-translation", reg.settings.maxTranslation, "Gate: largest accepted correction, mm")
+    ->capture_default_str();
+  registerCommand->add_option("--max-rotation", reg.settings.maxRotation, "Gate: largest accepted correction, degrees")
+    ->capture_default_str();
+  AddGateOptions(registerCommand, reg.settings);
   registerCommand->add_option("--threads", reg.threads, "Threads (0: all cores)");
   registerCommand->add_option("--out-dir", reg.outputDirectory, "Output folder")->required();
   registerCommand->add_option("--report", reg.reportDirectory, "Also write the visual report (index.html, summary.png) here");
@@ -123,8 +157,8 @@ int main(int argc, char** argv)
   evaluateCommand->add_option("--registration-off", evaluate.registrationOff,
     "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage")
     ->delimiter(',');
-  evaluateCommand->add_option("--high-pass-mm", evaluate.highPassMM, "The refinement's high-pass sd, mm on the panel (default 20)");
-  evaluateCommand->add_option("--coverage-margin-mm", evaluate.coverageMarginMM, "The CT coverage mask's margin, mm (default 4)");
+  AddMethodOptions(evaluateCommand, evaluate.settings);
+  AddGateOptions(evaluateCommand, evaluate.settings);
   evaluateCommand->add_option("--approaches", evaluate.approaches, "A (whole image) and/or B (entropy masks)")
     ->capture_default_str();
   evaluateCommand->add_option("--noise", evaluate.noise, "Quantum noise of the noisy scenarios")->capture_default_str();

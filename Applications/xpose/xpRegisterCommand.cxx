@@ -4,6 +4,7 @@
 #include "xpBodyMask.h"
 
 #include "vtkXPDRRFilter.h"
+#include "vtkXPStereoRegistrationFilter.h"
 
 #include "xpAttenuationVolume.h"
 #include "xpError.h"
@@ -11,9 +12,12 @@
 #include "xpImageIO.h"
 #include "xpImageRows.h"
 #include "xpImageGeometry.h"
-#include "xpStereoRegistration.h"
+#include "xpRegistrationRecord.h"
 
+#include <vtkCallbackCommand.h>
+#include <vtkCommand.h>
 #include <vtkImageData.h>
+#include <vtkNew.h>
 #include <vtkPointData.h>
 
 #include <chrono>
@@ -36,12 +40,44 @@ double Since(Clock::time_point start)
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-std::string JsonString(const std::string& text)
+/** Prints each stage of the registration as it begins, from the filter's progress events. */
+class StageLogger
 {
-  std::string out = "\"";
-  for (char c : text)
-    out += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
-  return out + "\"";
+public:
+  explicit StageLogger(vtkXPStereoRegistrationFilter* filter)
+  {
+    this->Callback->SetClientData(&this->LastStage);
+    this->Callback->SetCallback([](vtkObject* caller, unsigned long, void* clientData, void*)
+      {
+        auto* last = static_cast<std::string*>(clientData);
+        const char* stage = static_cast<vtkAlgorithm*>(caller)->GetProgressText();
+        if (stage && *last != stage)
+        {
+          *last = stage;
+          if (*last != "done")
+            std::printf("  %s...\n", stage);
+          std::fflush(stdout);
+        }
+      });
+    filter->AddObserver(vtkCommand::ProgressEvent, this->Callback);
+  }
+
+private:
+  vtkNew<vtkCallbackCommand> Callback;
+  std::string LastStage;
+};
+
+/** A float map in [0, 1] as 8-bit grey. */
+vtkSmartPointer<vtkImageData> EntropyAsGrey(vtkImageData* map)
+{
+  auto grey = vtkSmartPointer<vtkImageData>::New();
+  grey->CopyStructure(map);
+  grey->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  const auto* in = static_cast<const float*>(map->GetScalarPointer());
+  auto* out = static_cast<uint8_t*>(grey->GetScalarPointer());
+  for (vtkIdType i = 0; i < map->GetNumberOfPoints(); ++i)
+    out[i] = static_cast<uint8_t>(std::lround(255.0 * std::clamp(in[i], 0.0f, 1.0f)));
+  return grey;
 }
 
 } // namespace
@@ -86,55 +122,31 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
   {
     throw InputError("--roi", "give one ROI per X-ray, in the same order");
   }
-  const int factor = RegistrationShrinkFactor(panels, options.size);
+  inputs.shrinkFactor = RegistrationShrinkFactor(panels, options.size);
+  std::vector<vtkImageData*> xrays, rois;
   for (size_t v = 0; v < panels.size(); ++v)
   {
-    vtkSmartPointer<vtkImageData> xray = ReadXRayImage(options.xrays[v]);
-    int dims[3];
-    xray->GetDimensions(dims);
-    if (dims[0] != panels[v].Columns() || dims[1] != panels[v].Rows())
-    {
-      throw InputError(options.xrays[v], "is " + std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + " pixels, imager " +
-          panels[v].name + " of " + options.geometry + " has " + std::to_string(panels[v].Columns()) + "x" +
-          std::to_string(panels[v].Rows()));
-    }
-    RegistrationView item;
-    item.view = panels[v].Resampled(panels[v].Columns() / factor, panels[v].Rows() / factor);
-    item.xray = factor > 1 ? ShrinkImage(RowsTopFirst<uint16_t>(xray), dims[0], factor) : RowsTopFirst<uint16_t>(xray);
+    inputs.xrays.push_back(ReadXRayImage(options.xrays[v]));
+    xrays.push_back(inputs.xrays.back());
     if (!options.rois.empty())
     {
-      item.mask = RowsTopFirst<uint8_t>(ReadMaskPNG(options.rois[v], dims[0], dims[1]));
-      item.mask = factor > 1 ? ShrinkMask(item.mask, dims[0], factor) : item.mask;
+      inputs.rois.push_back(ReadMaskPNG(options.rois[v], panels[v].Columns(), panels[v].Rows()));
+      rois.push_back(inputs.rois.back());
     }
-    for (size_t earlier = 0; earlier < inputs.views.size(); ++earlier)
-    {
-      if (inputs.views[earlier].xray == item.xray)
-      {
-        throw InputError("--xray", options.xrays[v] + " (imager " + panels[v].name + ") holds the same image as " +
-            options.xrays[earlier] + " (imager " + panels[earlier].name + "): each imager needs its own X-ray");
-      }
-    }
-    inputs.views.push_back(std::move(item));
   }
+  // The registration filter's own checks, here before any work and naming the files.
+  inputs.views = vtkXPStereoRegistrationFilter::PrepareViews(setup.geometry, xrays, rois, inputs.shrinkFactor, options.xrays);
   vtkImageData* ct = setup.ct.image;
   inputs.isoInCT = setup.patient.IsocenterInCT(ImageCenter(ct));
   inputs.planned = setup.patient.PlannedCTToRoom(ImageCenter(ct));
   return inputs;
 }
 
-void CheckRegisterOptions(const RegisterOptions& options)
-{
-  CheckLimit(options.bins, 8, 256, "--bins");
-  CheckLimit(options.maxEvaluations, 10, 100000, "--max-evaluations");
-  CheckLimit(options.maxTranslation, 0.1, 500.0, "--max-translation");
-  CheckLimit(options.maxRotation, 0.1, 180.0, "--max-rotation");
-}
-
 int RunRegister(const RegisterOptions& options)
 {
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
-  CheckRegisterOptions(options);
+  CheckRegistrationSettings(options.settings);
   // Output folders are checked before the work, not after it: a registration whose result
   // cannot be written must not run for seconds and then fail.
   StagedOutputDirectory::CheckWritable(options.outputDirectory);
@@ -152,18 +164,23 @@ int RunRegister(const RegisterOptions& options)
   if (options.removeTable)
     std::printf("table: %lld voxels outside the body set to air\n", inputs.tableVoxelsRemoved);
 
-  // --- the method (Modules/Registration) ---
-  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(setup.ct.image, options.muWater);
-  const Eigen::Vector3d& roomIso = setup.geometry.isocenter;
-  StereoRegistrationSettings settings;
-  settings.entropyMask = options.entropyMask;
-  settings.bins = options.bins;
-  settings.maxEvaluations = options.maxEvaluations;
-  settings.maxTranslation = options.maxTranslation;
-  settings.maxRotation = options.maxRotation;
-  settings.minExplained = options.minExplained;
-  settings.maxViewResidual = options.maxViewResidual;
-  const StereoRegistrationResult result = RegisterStereo(*volume, inputs.planned, roomIso, views, settings);
+  // --- the method: the registration filter (Modules/Registration) ---
+  vtkNew<vtkXPStereoRegistrationFilter> registration;
+  registration->SetCTData(setup.ct.image);
+  for (vtkImageData* xray : inputs.xrays)
+    registration->AddXRayData(xray);
+  for (vtkImageData* roi : inputs.rois)
+    registration->AddROIData(roi);
+  registration->SetGeometry(setup.geometry);
+  registration->SetPatientSetup(setup.patient);
+  registration->SetMuWater(options.muWater);
+  registration->SetShrinkFactor(inputs.shrinkFactor);
+  registration->SetSettings(options.settings);
+  const StageLogger logger(registration);
+  registration->Update();
+  const StereoRegistrationResult& result = registration->GetResult();
+  if (!result.failures.empty() && result.failures.front().code == GateCode::InvalidInput)
+    throw InputError("registration", result.failures.front().message);
   std::printf("pre-alignment: %s, %d iterations (%.2f s)\nmasks: valid fraction", result.prealignment.pose.ToString().c_str(),
     result.prealignment.iterations, result.prealignSeconds);
   for (size_t v = 0; v < views.size(); ++v)
@@ -171,80 +188,51 @@ int RunRegister(const RegisterOptions& options)
   std::printf(" (%.2f s)\nfine 6-DOF: %s, %d evaluations (%.2f s)\n", result.maskSeconds, result.misalignment.ToString().c_str(),
     result.evaluations, result.fineSeconds);
   const bool ok = result.ok;
-  const std::vector<std::string>& reasons = result.reasons;
+  const std::vector<std::string> reasons = result.Reasons();
   const Pose& correction = result.correction;
   const double totalSeconds = Since(start);
 
   // --- outputs ---
   StagedOutputDirectory output(options.outputDirectory);
-  std::ostringstream json;
-  json << "{\n  \"status\": \"" << (ok ? "ok" : "failed") << "\",\n  \"misalignment\": " << JsonPose(result.misalignment)
-       << ",\n  \"correction\": " << JsonPose(correction)
-       << ",\n  \"convention\": \"IEC 61217 fixed; p' = R(p - iso) + iso + t; R = Rz(yaw) Ry(roll) Rx(pitch)\""
-       << ",\n  \"similarity\": {";
-  for (size_t v = 0; v < views.size(); ++v)
-    json << JsonString(views[v].view.name) << ": " << result.mutualInformation[v] << ", ";
-  json << "\"objective\": " << result.objective << "},\n  \"explained_information\": {";
-  for (size_t v = 0; v < views.size(); ++v)
-    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.explained[v];
-  json << "},\n  \"uncovered_fraction\": {";
-  for (size_t v = 0; v < views.size(); ++v)
-    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.uncovered[v];
-  json << "},\n  \"mask_valid_fraction\": {";
-  for (size_t v = 0; v < views.size(); ++v)
-    json << (v ? ", " : "") << JsonString(views[v].view.name) << ": " << result.validFraction[v];
-  json << "},\n  \"drr_count\": " << result.drrCount << ",\n  \"evaluations\": " << result.evaluations
-       << ",\n  \"timing_s\": {\"read\": " << readSeconds << ", \"prealign\": " << result.prealignSeconds
-       << ", \"mask\": " << result.maskSeconds << ", \"fine\": " << result.fineSeconds << ", \"total\": " << totalSeconds
-       << "},\n  \"search_disagreement\": {\"mm\": " << result.searchDisagreementMM
-       << ", \"degrees\": " << result.searchDisagreementDegrees << ", \"objective_ratio\": " << result.searchObjectiveRatio
-       << "},\n  \"reasons\": [";
-  for (size_t r = 0; r < reasons.size(); ++r)
-    json << (r ? ", " : "") << JsonString(reasons[r]);
-  // What `xpose report` needs to rebuild the pictures: the inputs (absolute paths) and the trace.
-  const auto absolute = [](const std::string& path) { return JsonString(std::filesystem::absolute(path).lexically_normal().string()); };
-  json << "],\n  \"inputs\": {\"ct\": " << absolute(options.ct) << ", \"series\": " << JsonString(options.series)
-       << ", \"geometry\": " << absolute(options.geometry) << ", \"xrays\": [";
-  for (size_t v = 0; v < options.xrays.size(); ++v)
-    json << (v ? ", " : "") << absolute(options.xrays[v]);
-  json << "], \"xray_md5\": [";
-  for (size_t v = 0; v < options.xrays.size(); ++v)
-    json << (v ? ", " : "") << JsonString(FileMD5(options.xrays[v]));
-  json << "], \"rois\": [";
-  for (size_t v = 0; v < options.rois.size(); ++v)
-    json << (v ? ", " : "") << absolute(options.rois[v]);
-  json << "], \"size\": " << JsonString(options.size) << ", \"iso_ct\": " << JsonString(options.isocenterInCT)
-       << ", \"mu_water\": " << options.muWater << ", \"entropy_mask\": " << (options.entropyMask ? "true" : "false")
-       << ", \"remove_table\": " << (options.removeTable ? "true" : "false")
-       << "},\n  \"convergence\": {\"stages\": [";
-  for (size_t n = 0; n < result.stages.size(); ++n)
-    json << (n ? ", " : "") << "{\"name\": " << JsonString(result.stages[n].name)
-         << ", \"first_evaluation\": " << result.stages[n].firstEvaluation << ", \"seconds\": " << result.stages[n].seconds
-         << "}";
-  json << "], \"objective\": [";
-  for (size_t n = 0; n < result.objectiveTrace.size(); ++n)
-    json << (n ? ", " : "") << result.objectiveTrace[n];
-  json << "]}\n}\n";
+  std::vector<std::string> viewNames;
+  for (const RegistrationView& item : views)
+    viewNames.push_back(item.view.name);
+  RegistrationRecord record = MakeRegistrationRecord(result, viewNames);
+  record.readSeconds = readSeconds;
+  record.totalSeconds = totalSeconds;
+  // What `xpose report` needs to rebuild the pictures: the inputs, with absolute paths.
+  const auto absolute = [](const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); };
+  RegistrationRecordInputs& in = record.inputs.emplace();
+  in.ct = absolute(options.ct);
+  in.series = options.series;
+  in.geometry = absolute(options.geometry);
+  for (const std::string& xray : options.xrays)
+  {
+    in.xrays.push_back(absolute(xray));
+    in.xrayMD5.push_back(FileMD5(xray));
+  }
+  for (const std::string& roi : options.rois)
+    in.rois.push_back(absolute(roi));
+  in.size = options.size;
+  in.isocenterInCT = options.isocenterInCT;
+  in.muWater = options.muWater;
+  in.entropyMask = options.settings.entropyMask;
+  in.removeTable = options.removeTable;
+  // The filter's outputs on the registration grid: DRRs, masks and entropy maps per view.
   for (size_t v = 0; v < views.size(); ++v)
   {
-    const int columns = views[v].view.Columns(), rows = views[v].view.Rows();
-    std::vector<uint8_t> mask255(result.masks[v].size());
-    std::transform(result.masks[v].begin(), result.masks[v].end(), mask255.begin(), [](uint8_t m) { return m ? 255 : 0; });
-    WritePNG(ImageFromRowsTopFirst(mask255, columns, rows), output.Path("mask_" + views[v].view.name + ".png"));
-    WritePNG(ImageFromRowsTopFirst(result.drrs[v], columns, rows), output.Path("drr_" + views[v].view.name + ".png"));
-    if (!result.entropyMaps.empty())
-    {
-      std::vector<uint8_t> map(result.entropyMaps[v].size());
-      std::transform(result.entropyMaps[v].begin(), result.entropyMaps[v].end(), map.begin(),
-        [](float h) { return static_cast<uint8_t>(std::lround(255.0 * std::clamp(h, 0.0f, 1.0f))); });
-      WritePNG(ImageFromRowsTopFirst(map, columns, rows), output.Path("entropy_" + views[v].view.name + ".png"));
-    }
+    const int port = 3 * static_cast<int>(v);
+    const std::string& name = views[v].view.name;
+    WritePNG(registration->GetOutput(port + 1), output.Path("mask_" + name + ".png"));
+    WritePNG(registration->GetOutput(port), output.Path("drr_" + name + ".png"));
+    if (options.settings.entropyMask)
+      WritePNG(EntropyAsGrey(registration->GetOutput(port + 2)), output.Path("entropy_" + name + ".png"));
   }
   // The record last: a folder with a result.json holds that run's complete output.
-  std::ofstream record(output.Path("result.json"));
-  record << json.str();
-  record.close();
-  if (!record)
+  std::ofstream recordFile(output.Path("result.json"));
+  recordFile << RegistrationRecordJSON(record);
+  recordFile.close();
+  if (!recordFile)
   {
     throw Error(options.outputDirectory + "/result.json", "cannot be written");
   }

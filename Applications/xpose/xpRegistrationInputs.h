@@ -8,6 +8,8 @@
 #include "xpStereoSimilarity.h"
 
 #include <Eigen/Geometry>
+#include <vtkImageData.h>
+#include <vtkSmartPointer.h>
 
 #include <vector>
 
@@ -17,7 +19,11 @@ namespace xp
 struct RegistrationInputs
 {
   DRRSetup setup;                         ///< CT, geometry, and a DRR filter placed like the CT
-  std::vector<RegistrationView> views;    ///< X-rays at the registration size, user ROIs in `mask`
+  std::vector<vtkSmartPointer<vtkImageData>> xrays; ///< as read, the panels' size
+  std::vector<vtkSmartPointer<vtkImageData>> rois;  ///< none, or one per X-ray
+  int shrinkFactor = 1;                   ///< --size: the panels' pixels per registration pixel
+  /** The X-rays and ROIs as the registration filter prepares them (at the registration size). */
+  std::vector<RegistrationView> views;
   Eigen::Vector3d isoInCT = Eigen::Vector3d::Zero();
   Eigen::Isometry3d planned = Eigen::Isometry3d::Identity(); ///< CT (LPS) -> Room, planned set-up
   long long tableVoxelsRemoved = 0;       ///< with --remove-table: voxels outside the body set to air

@@ -3,27 +3,49 @@
 #include "vtkXPDRRFilter.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
+#include "xpImageRows.h"
 
+#include <vtkCommand.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
 #include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkDataArray.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
-#include "xpImageRows.h"
+#include <cmath>
 
 vtkStandardNewMacro(vtkXPStereoRegistrationFilter);
 
+namespace
+{
+enum InputPort
+{
+  CTPort = 0,
+  XRayPort = 1,
+  ROIPort = 2
+};
+} // namespace
 
 vtkXPStereoRegistrationFilter::vtkXPStereoRegistrationFilter()
 {
-  this->SetNumberOfInputPorts(5);
-  this->SetNumberOfOutputPorts(4);
+  this->SetNumberOfInputPorts(3);
+  this->SetNumberOfOutputPorts(0);
+}
+
+vtkXPStereoRegistrationFilter::~vtkXPStereoRegistrationFilter() = default;
+
+void vtkXPStereoRegistrationFilter::RemoveAllXRaysAndROIs()
+{
+  this->SetInputConnection(XRayPort, nullptr);
+  this->SetInputConnection(ROIPort, nullptr);
 }
 
 void vtkXPStereoRegistrationFilter::SetGeometry(const xp::StereoGeometry& geometry)
 {
   this->Geometry = geometry;
+  this->SetNumberOfOutputPorts(3 * static_cast<int>(geometry.views.size()));
   this->Modified();
 }
 
@@ -45,32 +67,183 @@ void vtkXPStereoRegistrationFilter::SetSettings(const xp::StereoRegistrationSett
 int vtkXPStereoRegistrationFilter::FillInputPortInformation(int port, vtkInformation* info)
 {
   info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
-  if (port >= 3)
-  {
+  if (port != CTPort)
+    info->Set(vtkAlgorithm::INPUT_IS_REPEATABLE(), 1);
+  if (port == ROIPort)
     info->Set(vtkAlgorithm::INPUT_IS_OPTIONAL(), 1);
-  }
   return 1;
 }
 
 int vtkXPStereoRegistrationFilter::RequestInformation(
   vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  for (int port = 0; port < 4; ++port)
+  const int views = this->GetNumberOfOutputPorts() / 3;
+  if (inputVector[XRayPort]->GetNumberOfInformationObjects() != views)
   {
-    vtkInformation* in = inputVector[1 + port % 2]->GetInformationObject(0);
-    vtkInformation* out = outputVector->GetInformationObject(port);
-    out->CopyEntry(in, vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
-    out->CopyEntry(in, vtkDataObject::SPACING());
-    out->CopyEntry(in, vtkDataObject::ORIGIN());
-    vtkDataObject::SetPointDataActiveScalarInfo(out, port < 2 ? VTK_UNSIGNED_SHORT : VTK_UNSIGNED_CHAR, 1);
+    const std::string message = "the geometry has " + std::to_string(views) + " views; connect one X-ray each (got " +
+      std::to_string(inputVector[XRayPort]->GetNumberOfInformationObjects()) + ")";
+    this->Result = xp::StereoRegistrationResult{};
+    this->Result.failures.push_back({ xp::GateCode::InvalidInput, -1, "X-ray inputs: " + message });
+    vtkErrorMacro(<< message);
+    return 0;
+  }
+  const int f = this->ShrinkFactor;
+  for (int v = 0; v < views; ++v)
+  {
+    vtkInformation* in = inputVector[XRayPort]->GetInformationObject(v);
+    int whole[6];
+    double spacing[3], origin[3];
+    in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    in->Get(vtkDataObject::SPACING(), spacing);
+    in->Get(vtkDataObject::ORIGIN(), origin);
+    // The registration grid: each pixel the mean of f x f X-ray pixels, centred on them.
+    const int shrunk[6] = { 0, (whole[1] - whole[0] + 1) / f - 1, 0, (whole[3] - whole[2] + 1) / f - 1, 0, 0 };
+    const double outSpacing[3] = { spacing[0] * f, spacing[1] * f, spacing[2] };
+    const double outOrigin[3] = { origin[0] + spacing[0] * (whole[0] + 0.5 * (f - 1)),
+      origin[1] + spacing[1] * (whole[2] + 0.5 * (f - 1)), origin[2] };
+    for (int kind = 0; kind < 3; ++kind)
+    {
+      vtkInformation* out = outputVector->GetInformationObject(3 * v + kind);
+      out->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), shrunk, 6);
+      out->Set(vtkDataObject::SPACING(), outSpacing, 3);
+      out->Set(vtkDataObject::ORIGIN(), outOrigin, 3);
+      const int type[3] = { VTK_UNSIGNED_SHORT, VTK_UNSIGNED_CHAR, VTK_FLOAT };
+      vtkDataObject::SetPointDataActiveScalarInfo(out, type[kind], 1);
+    }
   }
   return 1;
 }
 
 int vtkXPStereoRegistrationFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector*)
 {
-  xp::RequestWholeExtents(inputVector, 5);
+  for (int port = 0; port < this->GetNumberOfInputPorts(); ++port)
+  {
+    for (int c = 0; c < inputVector[port]->GetNumberOfInformationObjects(); ++c)
+    {
+      vtkInformation* info = inputVector[port]->GetInformationObject(c);
+      int whole[6];
+      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+      info->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+    }
+  }
   return 1;
+}
+
+void vtkXPStereoRegistrationFilter::CheckXRay(vtkImageData* xray, const xp::XRayView& panel, const std::string& what)
+{
+  int dims[3];
+  xray->GetDimensions(dims);
+  if (dims[0] != panel.Columns() || dims[1] != panel.Rows() || dims[2] != 1)
+  {
+    throw xp::InputError(what, "is " + std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + " pixels, imager " +
+        panel.name + " of the geometry has " + std::to_string(panel.Columns()) + "x" + std::to_string(panel.Rows()));
+  }
+  if (xray->GetScalarType() != VTK_UNSIGNED_SHORT || xray->GetNumberOfScalarComponents() != 1)
+  {
+    throw xp::InputError(what, "must hold one unsigned 16-bit (12-bit valued) sample per pixel");
+  }
+}
+
+std::vector<xp::RegistrationView> vtkXPStereoRegistrationFilter::PrepareViews(const xp::StereoGeometry& geometry,
+  const std::vector<vtkImageData*>& xrays, const std::vector<vtkImageData*>& rois, int f, const std::vector<std::string>& names)
+{
+  const std::vector<xp::XRayView>& panels = geometry.views;
+  if (xrays.size() != panels.size())
+  {
+    throw xp::InputError("X-ray inputs", "the geometry has " + std::to_string(panels.size()) + " imagers; give one X-ray each, in order (got " +
+        std::to_string(xrays.size()) + ")");
+  }
+  if (!rois.empty() && rois.size() != panels.size())
+  {
+    throw xp::InputError("ROI inputs", "give none, or one per X-ray (" + std::to_string(panels.size()) + "), got " +
+        std::to_string(rois.size()));
+  }
+  std::vector<xp::RegistrationView> views;
+  std::vector<std::vector<uint16_t>> full; // the X-rays before shrinking, to tell them apart
+  for (size_t v = 0; v < panels.size(); ++v)
+  {
+    const xp::XRayView& panel = panels[v];
+    const std::string what = v < names.size() ? names[v] : "X-ray input " + std::to_string(v) + " (imager " + panel.name + ")";
+    vtkImageData* xray = xrays[v];
+    CheckXRay(xray, panel, what);
+    if (panel.Columns() % f != 0 || panel.Rows() % f != 0)
+    {
+      throw xp::InputError("shrink factor", std::to_string(f) + " does not divide imager " + panel.name + "'s " +
+          std::to_string(panel.Columns()) + "x" + std::to_string(panel.Rows()) + " pixels");
+    }
+    xp::RegistrationView item;
+    item.view = panel.Resampled(panel.Columns() / f, panel.Rows() / f);
+    item.xray = xp::RowsTopFirst<uint16_t>(xray);
+    for (uint16_t value : item.xray)
+      if (value > 4095)
+        throw xp::InputError(what, "holds " + std::to_string(value) + ": X-rays are 12-bit (0-4095)");
+    for (size_t earlier = 0; earlier < full.size(); ++earlier)
+    {
+      if (full[earlier] == item.xray)
+        throw xp::InputError(what, "(imager " + panel.name + ") holds the same image as " +
+            (earlier < names.size() ? names[earlier] : "X-ray input " + std::to_string(earlier)) + " (imager " +
+            panels[earlier].name + "): each imager needs its own X-ray");
+    }
+    full.push_back(item.xray);
+    if (f > 1)
+      item.xray = xp::ShrinkImage(item.xray, panel.Columns(), f);
+    if (!rois.empty())
+    {
+      vtkImageData* roi = rois[v];
+      int dims[3];
+      roi->GetDimensions(dims);
+      if (roi->GetScalarType() != VTK_UNSIGNED_CHAR || dims[0] != panel.Columns() || dims[1] != panel.Rows())
+      {
+        throw xp::InputError("ROI " + std::to_string(v) + " (imager " + panel.name + ")",
+          "must be unsigned char with the X-ray's " + std::to_string(panel.Columns()) + "x" + std::to_string(panel.Rows()) +
+            " pixels");
+      }
+      item.mask = xp::RowsTopFirst<uint8_t>(roi);
+      for (uint8_t& m : item.mask)
+        m = m ? 1 : 0;
+      if (f > 1)
+        item.mask = xp::ShrinkMask(item.mask, panel.Columns(), f);
+    }
+    views.push_back(std::move(item));
+  }
+  return views;
+}
+
+const xp::AttenuationVolume& vtkXPStereoRegistrationFilter::Attenuation(vtkImageData* ct)
+{
+  if (!this->Volume || ct != this->VolumeSource || ct->GetMTime() != this->VolumeTime || this->MuWater != this->VolumeMuWater)
+  {
+    this->Volume = xp::MakeAttenuationVolume(ct, this->MuWater);
+    this->VolumeSource = ct;
+    this->VolumeTime = ct->GetMTime();
+    this->VolumeMuWater = this->MuWater;
+  }
+  return *this->Volume;
+}
+
+void vtkXPStereoRegistrationFilter::WriteOutputs(vtkInformationVector* outputVector)
+{
+  for (size_t v = 0; v < this->Geometry.views.size(); ++v)
+  {
+    const int port = 3 * static_cast<int>(v);
+    const auto allocate = [&](int kind, int type)
+    {
+      vtkInformation* info = outputVector->GetInformationObject(port + kind);
+      vtkImageData* out = vtkImageData::GetData(info);
+      int whole[6];
+      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+      out->SetExtent(whole);
+      out->AllocateScalars(type, 1);
+      return out;
+    };
+    xp::CopyRowsTopFirst<uint16_t>(this->Result.drrs[v], allocate(0, VTK_UNSIGNED_SHORT));
+    xp::CopyRowsTopFirst<uint8_t>(this->Result.masks[v], allocate(1, VTK_UNSIGNED_CHAR), 255);
+    vtkImageData* entropy = allocate(2, VTK_FLOAT);
+    if (this->Result.entropyMaps.empty())
+      entropy->GetPointData()->GetScalars()->Fill(0.0);
+    else
+      xp::CopyRowsTopFirst<float>(this->Result.entropyMaps[v], entropy);
+  }
 }
 
 int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
@@ -78,62 +251,34 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
   try
   {
     xp::ValidateStereoGeometry(this->Geometry, "registration geometry");
-    vtkImageData* ct = vtkImageData::GetData(inputVector[0]);
-    const std::unique_ptr<xp::AttenuationVolume> volume = xp::MakeAttenuationVolume(ct, this->MuWater);
     if ((this->Setup.roomIsocenter - this->Geometry.isocenter).norm() > 1e-6)
     {
       throw xp::InputError("patient set-up: room isocentre", "differs from the geometry's isocentre");
     }
+    std::vector<vtkImageData*> xrays, rois;
+    for (int c = 0; c < inputVector[XRayPort]->GetNumberOfInformationObjects(); ++c)
+      xrays.push_back(vtkImageData::GetData(inputVector[XRayPort], c));
+    for (int c = 0; c < inputVector[ROIPort]->GetNumberOfInformationObjects(); ++c)
+      rois.push_back(vtkImageData::GetData(inputVector[ROIPort], c));
+    const std::vector<xp::RegistrationView> views = PrepareViews(this->Geometry, xrays, rois, this->ShrinkFactor);
+    vtkImageData* ct = vtkImageData::GetData(inputVector[CTPort]);
+    const xp::AttenuationVolume& volume = this->Attenuation(ct);
     const Eigen::Isometry3d planned = this->Setup.PlannedCTToRoom(xp::ImageCenter(ct));
-    std::vector<xp::RegistrationView> views;
-    for (int v = 0; v < 2; ++v)
+    const xp::RegistrationObserver observer = [this](const xp::RegistrationProgress& progress)
     {
-      vtkImageData* xray = vtkImageData::GetData(inputVector[1 + v]);
-      vtkImageData* roi = this->GetNumberOfInputConnections(3 + v) > 0 ? vtkImageData::GetData(inputVector[3 + v]) : nullptr;
-      const xp::XRayView& view = this->Geometry.views[v];
-      int dims[3];
-      xray->GetDimensions(dims);
-      if (xray->GetScalarType() != VTK_UNSIGNED_SHORT || dims[0] != view.Columns() || dims[1] != view.Rows())
-      {
-        throw xp::InputError("X-ray " + view.name, "must be unsigned short with the view's " + std::to_string(view.Columns()) +
-            "x" + std::to_string(view.Rows()) + " pixels");
-      }
-      xp::RegistrationView item;
-      item.view = view;
-      item.xray = xp::RowsTopFirst<uint16_t>(xray);
-      if (roi)
-      {
-        int r[3];
-        roi->GetDimensions(r);
-        if (roi->GetScalarType() != VTK_UNSIGNED_CHAR || r[0] != dims[0] || r[1] != dims[1])
-        {
-          throw xp::InputError("ROI " + view.name, "must be unsigned char with the X-ray's size");
-        }
-        item.mask = xp::RowsTopFirst<uint8_t>(roi);
-        for (uint8_t& m : item.mask)
-          m = m ? 1 : 0;
-      }
-      views.push_back(std::move(item));
-    }
-    this->Result = xp::RegisterStereo(*volume, planned, this->Geometry.isocenter, views, this->Settings);
-    for (int v = 0; v < 2; ++v)
-    {
-      for (int kind = 0; kind < 2; ++kind)
-      {
-        vtkImageData* out = vtkImageData::GetData(outputVector, 2 * kind + v);
-        out->CopyStructure(vtkImageData::GetData(inputVector[1 + v]));
-        out->AllocateScalars(kind == 0 ? VTK_UNSIGNED_SHORT : VTK_UNSIGNED_CHAR, 1);
-        if (kind == 0)
-          xp::CopyRowsTopFirst<uint16_t>(this->Result.drrs[v], out);
-        else
-          xp::CopyRowsTopFirst<uint8_t>(this->Result.masks[v], out, 255);
-      }
-    }
+      this->LastObjective = progress.objective;
+      if (progress.evaluations > 0)
+        this->InvokeEvent(EvaluationEvent);
+      this->SetProgressText(progress.stage.c_str());
+      this->UpdateProgress(progress.fraction);
+    };
+    this->Result = xp::RegisterStereo(volume, planned, this->Geometry.isocenter, views, this->Settings, observer);
+    this->WriteOutputs(outputVector);
   }
   catch (const xp::Error& e)
   {
     this->Result = xp::StereoRegistrationResult{};
-    this->Result.reasons.push_back(e.what());
+    this->Result.failures.push_back({ xp::GateCode::InvalidInput, -1, e.what() });
     vtkErrorMacro(<< e.what());
     return 0;
   }
@@ -146,6 +291,7 @@ void vtkXPStereoRegistrationFilter::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "Geometry: " << this->Geometry.name << " (" << this->Geometry.views.size() << " views)\n";
   os << indent << "PatientSetup: " << this->Setup.Describe() << "\n";
   os << indent << "MuWater: " << this->MuWater << "\n";
+  os << indent << "ShrinkFactor: " << this->ShrinkFactor << "\n";
   os << indent << "EntropyMask: " << this->Settings.entropyMask << ", bins " << this->Settings.bins
      << ", max evaluations " << this->Settings.maxEvaluations << "\n";
   os << indent << "Result: " << (this->Result.ok ? "ok" : "failed or not run") << ", " << this->Result.misalignment.ToString() << "\n";

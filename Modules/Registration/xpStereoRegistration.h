@@ -10,8 +10,10 @@
 
 #include "xpEntropyMask.h"
 #include "xpPreAlignment.h"
+#include "xpQualityGate.h"
 #include "xpStereoSimilarity.h"
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -42,6 +44,7 @@ struct StereoRegistrationSettings
   double maxRotation = 10.0;     ///< gate: and degrees
   double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
+  double maxViewResidualDegrees = 1.0; ///< gate: and degrees it may still turn in its plane
   /** gate: largest fraction of a view's valid pixels that may show attenuation where the final
    *  DRR's ray meets no CT (X-ray anatomy the CT does not cover at the result). */
   double maxUncovered = 0.2;
@@ -74,7 +77,8 @@ struct RegistrationStage
 struct StereoRegistrationResult
 {
   bool ok = false;
-  std::vector<std::string> reasons;  ///< why the gate failed; empty when ok
+  std::vector<GateFailure> failures; ///< why the gate failed (xpQualityGate.h); empty when ok
+  std::vector<std::string> Reasons() const; ///< the failures' messages
   Pose misalignment;
   Pose correction;                   ///< misalignment.Inverse(): what the table should do
   PreAlignmentResult prealignment;
@@ -98,14 +102,27 @@ struct StereoRegistrationResult
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
 };
 
+/** Where a running registration stands, for progress bars and logs. */
+struct RegistrationProgress
+{
+  std::string stage;      ///< "pre-alignment", "coarse search", ..., "done"
+  int evaluations = 0;    ///< of this stage so far
+  double objective = 0.0; ///< the last evaluation's
+  double fraction = 0.0;  ///< of the whole registration, an estimate rising to 1 at "done"
+};
+using RegistrationObserver = std::function<void(const RegistrationProgress&)>;
+
 /**
  * Registers a CT to stereo X-rays. `views` carry the X-rays (12-bit, row 0 first) and, in
  * `mask`, the user ROIs (empty = whole image). Misalignments act about `isocenter` after
- * `plannedCTToRoom`. Throws xp::InputError when a mask leaves nothing to register.
+ * `plannedCTToRoom`. `observer`, when set, hears of every evaluation. The steps: pre-alignment
+ * (xpPreAlignment.h), validity masks (entropy, ROI, CT coverage), a coarse search from two starts,
+ * the refinement of its ends and the quality gate (xpQualityGate.h). Throws xp::InputError when
+ * a mask leaves nothing to register or a gate limit is invalid.
  */
 VTKXPREGISTRATION_EXPORT StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
-  const StereoRegistrationSettings& settings = {});
+  const StereoRegistrationSettings& settings = {}, const RegistrationObserver& observer = {});
 
 /** Box average by an integer factor of a columns-wide image; for masks, a pixel is valid only
  *  when all it covers are. */

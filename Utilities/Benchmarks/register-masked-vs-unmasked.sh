@@ -20,11 +20,20 @@ for mode in masked unmasked; do
   "$xpose" register --ct "$ct" --geometry "$geometry" --xray "$work/xray/xray_A.png" --xray "$work/xray/xray_B.png" \
     --size "$size" $flag --out-dir "$work/$mode" >"$work/$mode.log" || status=$?
   echo "== $mode (exit $status)"
-  grep -E '"status"|"misalignment"|"mask_valid_fraction"|"drr_count"|"evaluations"|"timing_s"' "$work/$mode/result.json"
-  grep -o '"stages": \[[^]]*\]' "$work/$mode/result.json"
+  python3 - "$work/$mode/result.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+m = r["misalignment"]
+print("status:", r["status"], [f["code"] for f in r["failures"]])
+print("misalignment: t", ["%.3f" % t for t in m["translation_mm"]], "mm, pitch/roll/yaw",
+      ["%.3f" % m["rotation_deg"][a] for a in ("pitch", "roll", "yaw")], "degrees")
+print("mask valid fraction:", {v: round(r["mask_valid_fraction"][v], 3) for v in r["views"]})
+print("DRRs:", r["drr_count"], "evaluations:", r["evaluations"])
+print("timing (s):", {k: round(v, 2) for k, v in r["timing_s"].items()})
+print("stages:", [(s["name"], s["first_evaluation"], round(s["seconds"], 2)) for s in r["convergence"]["stages"]])
+PY
 done
 echo "== truth: misalignment $pose (mm, degrees)"
-fine() { sed -n 's/.*"fine": \([0-9.]*\).*/\1/p' "$work/$1/result.json"; }
-total() { sed -n 's/.*"total": \([0-9.]*\).*/\1/p' "$work/$1/result.json"; }
-echo "fine-alignment time unmasked / masked: $(echo "$(fine unmasked) / $(fine masked)" | bc -l | cut -c1-5)"
-echo "whole registration time unmasked / masked: $(echo "$(total unmasked) / $(total masked)" | bc -l | cut -c1-5)"
+timing() { python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["timing_s"][sys.argv[2]])' "$work/$1/result.json" "$2"; }
+echo "fine-alignment time unmasked / masked: $(echo "$(timing unmasked fine) / $(timing masked fine)" | bc -l | cut -c1-5)"
+echo "whole registration time unmasked / masked: $(echo "$(timing unmasked total) / $(timing masked total)" | bc -l | cut -c1-5)"

@@ -1,5 +1,6 @@
 // The subcommands end to end: phantom -> DICOM -> DRR files, exit codes, nothing half-written.
 #include "xpCommands.h"
+#include "xpRegistrationRecord.h"
 
 #include <dirent.h>
 #include <cmath>
@@ -271,24 +272,13 @@ std::string ReadText(const std::string& path)
 }
 
 /** The number after `"key": ` in `text` (first occurrence after `after`). */
-double JsonNumber(const std::string& text, const std::string& key, const std::string& after = "")
+/** The gate's failure codes of a record, as result.json names them. */
+std::string FailureCodes(const xp::RegistrationRecord& record)
 {
-  const size_t from = after.empty() ? 0 : text.find(after);
-  const size_t at = text.find("\"" + key + "\": ", from);
-  EXPECT_NE(at, std::string::npos) << key;
-  return std::stod(text.substr(at + key.size() + 4));
-}
-
-/** The translation (mm) of the "misalignment" or "correction" a result.json reports. */
-Eigen::Vector3d ResultTranslation(const std::string& result, const std::string& which = "misalignment")
-{
-  const std::string key = "\"" + which + "\": {\"translation_mm\": [";
-  const size_t at = result.find(key);
-  EXPECT_NE(at, std::string::npos) << result;
-  Eigen::Vector3d t = Eigen::Vector3d::Constant(NAN);
-  if (at != std::string::npos)
-    std::sscanf(result.c_str() + at + key.size(), "%lf, %lf, %lf", &t[0], &t[1], &t[2]);
-  return t;
+  std::string codes;
+  for (const xp::GateFailure& failure : record.failures)
+    codes += std::string(codes.empty() ? "" : ", ") + xp::GateCodeName(failure.code);
+  return codes;
 }
 
 /** Simulated X-rays with noise and kV contrast (and X-ray-only objects) into `out`. */
@@ -325,17 +315,17 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   const xp::RegisterOptions options = RegisterSimulated("cmd-reg-sim", "cmd-reg");
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
-  const std::string result = ReadText("cmd-reg/result.json");
-  EXPECT_NE(result.find("\"status\": \"ok\""), std::string::npos) << result;
+  const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg/result.json");
+  EXPECT_TRUE(result.ok) << FailureCodes(result);
   // Misalignment as simulated; the correction of a +5 mm lateral shift is about -5 mm.
-  const Eigen::Vector3d t = ResultTranslation(result);
+  const Eigen::Vector3d t = result.misalignment.translation;
   EXPECT_NEAR(t[0], 5.0, 0.5);
   EXPECT_NEAR(t[1], -3.0, 0.5);
   EXPECT_NEAR(t[2], 2.0, 0.5);
-  EXPECT_NEAR(JsonNumber(result, "pitch", "\"misalignment\""), 1.0, 0.3);
-  EXPECT_NEAR(JsonNumber(result, "roll", "\"misalignment\""), -1.0, 0.3);
-  EXPECT_NEAR(JsonNumber(result, "yaw", "\"misalignment\""), 1.5, 0.3);
-  const Eigen::Vector3d c = ResultTranslation(result, "correction");
+  EXPECT_NEAR(result.misalignment.pitch, 1.0, 0.3);
+  EXPECT_NEAR(result.misalignment.roll, -1.0, 0.3);
+  EXPECT_NEAR(result.misalignment.yaw, 1.5, 0.3);
+  const Eigen::Vector3d c = result.correction.translation;
   EXPECT_LT(c[0], -4.0) << "correction moves the patient back";
   for (const char* file : { "drr_A.png", "drr_B.png", "mask_A.png", "mask_B.png", "entropy_A.png" })
     EXPECT_TRUE(Exists(std::string("cmd-reg/") + file)) << file;
@@ -365,9 +355,9 @@ TEST(Commands, RegisterRefusesImagesOfSomethingElse)
   }
   const xp::RegisterOptions options = RegisterSimulated("cmd-reg-other", "cmd-reg-failed");
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
-  const std::string result = ReadText("cmd-reg-failed/result.json");
-  EXPECT_NE(result.find("\"status\": \"failed\""), std::string::npos) << result;
-  EXPECT_EQ(result.find("\"reasons\": []"), std::string::npos) << "a failure says why";
+  const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg-failed/result.json");
+  EXPECT_FALSE(result.ok);
+  EXPECT_FALSE(result.failures.empty()) << "a failure says why";
 }
 
 TEST(Commands, RegisterBadInputExitsWithTwo)
@@ -392,14 +382,13 @@ TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
   for (int masked = 0; masked < 2; ++masked)
   {
     xp::RegisterOptions options = RegisterSimulated("cmd-obj-sim", masked ? "cmd-obj-masked" : "cmd-obj-unmasked");
-    options.entropyMask = masked;
+    options.settings.entropyMask = masked;
     xp::GuardedRun("register", [&] { return xp::RunRegister(options); });
-    const std::string result = ReadText(options.outputDirectory + "/result.json");
-    const Eigen::Vector3d t = ResultTranslation(result);
-    error[masked] = (t - Eigen::Vector3d(6, 4, -5)).cwiseAbs().maxCoeff();
+    const xp::RegistrationRecord result = xp::ReadRegistrationRecord(options.outputDirectory + "/result.json");
+    error[masked] = (result.misalignment.translation - Eigen::Vector3d(6, 4, -5)).cwiseAbs().maxCoeff();
     if (masked)
     {
-      EXPECT_NE(result.find("\"status\": \"ok\""), std::string::npos) << result;
+      EXPECT_TRUE(result.ok) << FailureCodes(result);
     }
   }
   std::printf("largest axis error with X-ray-only objects: masked %.3f mm, unmasked %.3f mm\n", error[1], error[0]);
@@ -425,15 +414,15 @@ TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
   // along the roll/lateral valley, at 512x384 0.27 mm.
   options.size = "512x384";
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
-  const std::string result = ReadText("cmd-pel-reg/result.json");
-  const Eigen::Vector3d t = ResultTranslation(result);
-  EXPECT_LT((t - Eigen::Vector3d(7, -5, 4)).cwiseAbs().maxCoeff(), 0.5) << result;
-  EXPECT_NEAR(JsonNumber(result, "yaw", "\"misalignment\""), 2.5, 0.2);
+  const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-pel-reg/result.json");
+  EXPECT_LT((result.misalignment.translation - Eigen::Vector3d(7, -5, 4)).cwiseAbs().maxCoeff(), 0.5)
+    << result.misalignment.ToString();
+  EXPECT_NEAR(result.misalignment.yaw, 2.5, 0.2);
 
   // The pelvis X-rays against the head phantom's CT: another patient, so the result must fail.
   options = RegisterSimulated("cmd-pel-sim", "cmd-pel-other");
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
-  EXPECT_NE(ReadText("cmd-pel-other/result.json").find("\"status\": \"failed\""), std::string::npos);
+  EXPECT_FALSE(xp::ReadRegistrationRecord("cmd-pel-other/result.json").ok);
 }
 
 namespace
@@ -607,8 +596,8 @@ TEST(Commands, NonFiniteOrNegativeGateLimitsAreRefused)
          std::make_pair(-1.0, 10.0), std::make_pair(50.0, -2.0), std::make_pair(HUGE_VAL, 10.0) })
   {
     xp::RegisterOptions options = good;
-    options.maxTranslation = translation;
-    options.maxRotation = rotation;
+    options.settings.maxTranslation = translation;
+    options.settings.maxRotation = rotation;
     EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput)
       << translation << " mm, " << rotation << " degrees";
   }
@@ -622,11 +611,12 @@ TEST(Commands, TheTranslationLimitIsOnTheVectorLength)
   const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "5,-3,2,1,-1,1.5", 20.0, false, "cmd-len-sim");
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   xp::RegisterOptions options = RegisterSimulated("cmd-len-sim", "cmd-len");
-  options.maxTranslation = 5.5;
+  options.settings.maxTranslation = 5.5;
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
-  const std::string result = ReadText("cmd-len/result.json");
-  EXPECT_NE(result.find("\"status\": \"failed\""), std::string::npos) << result;
-  EXPECT_NE(result.find("exceeds 5.5 mm"), std::string::npos) << result;
+  const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-len/result.json");
+  EXPECT_FALSE(result.ok);
+  EXPECT_EQ(FailureCodes(result), "translation_too_large");
+  EXPECT_NE(result.failures.front().message.find("exceeds 5.5 mm"), std::string::npos) << result.failures.front().message;
 }
 
 TEST(Commands, UnwritableOutputsAndTheSameXRayTwiceAreRefusedBeforeTheWork)
@@ -657,7 +647,8 @@ TEST(Commands, ARerunReplacesEveryOutputAndReportChecksTheXRays)
   EXPECT_FALSE(Exists("cmd-rerun/entropy_Z.png")) << "an earlier run's image was left beside this run's result";
   EXPECT_FALSE(Exists("cmd-rerun/mask_Z.png"));
   EXPECT_TRUE(Exists("cmd-rerun/notes.txt")) << "files xpose does not write are the user's";
-  EXPECT_NE(ReadText("cmd-rerun/result.json").find("\"xray_md5\""), std::string::npos);
+  ASSERT_TRUE(xp::ReadRegistrationRecord("cmd-rerun/result.json").inputs.has_value());
+  EXPECT_EQ(xp::ReadRegistrationRecord("cmd-rerun/result.json").inputs->xrayMD5.size(), 2u);
   // The X-ray changes after the registration: the report would show other images, so it refuses.
   ASSERT_EQ(std::system("cp cmd-rerun-sim/xray_B.png cmd-rerun-sim/xray_A.png"), 0);
   xp::ReportOptions report;

@@ -8,10 +8,25 @@
 #include "xpStereoSimilarity.h"
 
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <random>
+#include <set>
 
 namespace
 {
+
+bool FailedWith(const xp::StereoRegistrationResult& result, xp::GateCode code)
+{
+  return std::any_of(result.failures.begin(), result.failures.end(), [&](const xp::GateFailure& f) { return f.code == code; });
+}
+
+std::string Described(const xp::StereoRegistrationResult& result)
+{
+  std::string text = result.misalignment.ToString();
+  for (const xp::GateFailure& failure : result.failures)
+    text += std::string("; ") + xp::GateCodeName(failure.code) + ": " + failure.message;
+  return text;
+}
 
 std::vector<xp::XRayView> StereoViews(int columns, int rows)
 {
@@ -160,6 +175,7 @@ TEST(PreAlignment, BringsALargeMisalignmentIntoTheFineRange)
 
 #include "vtkXPStereoRegistrationFilter.h"
 
+#include <vtkCallbackCommand.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
 #include <vtkNew.h>
@@ -180,7 +196,7 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
   ct->GetPointData()->SetScalars(hu);
 
   vtkNew<vtkXPStereoRegistrationFilter> registration;
-  registration->SetInputData(0, ct);
+  registration->SetCTData(ct);
   xp::StereoGeometry geometry;
   for (int v = 0; v < 2; ++v)
   {
@@ -191,17 +207,62 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
     auto* p = static_cast<uint16_t*>(xray->GetScalarPointer());
     for (int r = 0; r < 120; ++r)
       std::copy(simulated[v].xray.begin() + r * 160, simulated[v].xray.begin() + (r + 1) * 160, p + (119 - r) * 160);
-    registration->SetInputData(1 + v, xray);
+    registration->AddXRayData(xray);
   }
   registration->SetGeometry(geometry);
+  // Progress: every stage reported, rising to 1, and every similarity evaluation heard.
+  struct Heard
+  {
+    std::vector<double> fractions;
+    std::set<std::string> stages;
+    int evaluations = 0;
+  } heard;
+  vtkNew<vtkCallbackCommand> onProgress, onEvaluation;
+  onProgress->SetClientData(&heard);
+  onProgress->SetCallback([](vtkObject* caller, unsigned long, void* data, void*)
+    {
+      auto* filter = static_cast<vtkXPStereoRegistrationFilter*>(caller);
+      static_cast<Heard*>(data)->fractions.push_back(filter->GetProgress());
+      if (filter->GetProgressText()) // the executive's own events carry none
+        static_cast<Heard*>(data)->stages.insert(filter->GetProgressText());
+    });
+  onEvaluation->SetClientData(&heard);
+  onEvaluation->SetCallback([](vtkObject*, unsigned long, void* data, void*) { ++static_cast<Heard*>(data)->evaluations; });
+  registration->AddObserver(vtkCommand::ProgressEvent, onProgress);
+  registration->AddObserver(vtkXPStereoRegistrationFilter::EvaluationEvent, onEvaluation);
   registration->Update();
   const xp::StereoRegistrationResult& result = registration->GetResult();
-  EXPECT_TRUE(result.ok) << (result.reasons.empty() ? "" : result.reasons.front());
+  EXPECT_TRUE(result.ok) << (result.Reasons().empty() ? "" : result.Reasons().front());
+  EXPECT_EQ(heard.evaluations, static_cast<int>(result.objectiveTrace.size()));
+  EXPECT_TRUE(std::is_sorted(heard.fractions.begin(), heard.fractions.end())) << "progress never goes back";
+  ASSERT_FALSE(heard.fractions.empty());
+  EXPECT_EQ(heard.fractions.back(), 1.0);
+  for (const char* stage : { "pre-alignment", "coarse search", "second coarse search", "fine", "quality gate" })
+    EXPECT_TRUE(heard.stages.count(stage)) << stage;
   EXPECT_LT((result.misalignment.translation - truth.translation).norm(), 0.5);
   EXPECT_NEAR(result.misalignment.yaw, -2.0, 0.3);
   EXPECT_NEAR(result.correction.translation[0], 4.0, 0.6) << "correction undoes a -4 mm lateral shift";
   EXPECT_EQ(registration->GetOutput(0)->GetScalarType(), VTK_UNSIGNED_SHORT);
-  EXPECT_EQ(registration->GetOutput(2)->GetDimensions()[0], 160);
+  EXPECT_EQ(registration->GetOutput(1)->GetScalarType(), VTK_UNSIGNED_CHAR);
+  EXPECT_EQ(registration->GetOutput(2)->GetScalarType(), VTK_FLOAT);
+  EXPECT_EQ(registration->GetOutput(4)->GetDimensions()[0], 160);
+
+  // A shrink factor of 2 registers the same X-rays on 80x60 panels: outputs on that grid, the
+  // same pose within the accuracy asked.
+  registration->SetShrinkFactor(2);
+  registration->Update();
+  EXPECT_TRUE(registration->GetResult().ok);
+  EXPECT_LT((registration->GetResult().misalignment.translation - truth.translation).norm(), 0.6);
+  EXPECT_EQ(registration->GetOutput(3)->GetDimensions()[0], 80);
+  EXPECT_EQ(registration->GetOutput(3)->GetDimensions()[1], 60);
+  EXPECT_DOUBLE_EQ(registration->GetOutput(3)->GetSpacing()[0], 2.0 * vtkImageData::SafeDownCast(registration->GetInput(1))->GetSpacing()[0]);
+  registration->SetShrinkFactor(7); // divides neither 160 nor 120
+  registration->GlobalWarningDisplayOff();
+  registration->Update();
+  registration->GlobalWarningDisplayOn();
+  ASSERT_FALSE(registration->GetResult().failures.empty());
+  EXPECT_EQ(registration->GetResult().failures.front().code, xp::GateCode::InvalidInput);
+  registration->SetShrinkFactor(1);
 
   // A patient set-up whose room isocentre is not the geometry's would place the CT elsewhere
   // than the X-rays see it: refused, and the result says why.
@@ -212,8 +273,9 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
   registration->Update();
   registration->GlobalWarningDisplayOn();
   EXPECT_FALSE(registration->GetResult().ok);
-  ASSERT_FALSE(registration->GetResult().reasons.empty());
-  EXPECT_NE(registration->GetResult().reasons.front().find("room isocentre"), std::string::npos);
+  ASSERT_FALSE(registration->GetResult().failures.empty());
+  EXPECT_EQ(registration->GetResult().failures.front().code, xp::GateCode::InvalidInput);
+  EXPECT_NE(registration->GetResult().failures.front().message.find("room isocentre"), std::string::npos);
 }
 
 namespace
@@ -336,9 +398,7 @@ TEST(StereoRegistrationGate, FailsWhenTheImagesDoNotFixThePose)
     xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), Simulate(scene, truth, 5));
   EXPECT_FALSE(result.ok) << result.misalignment.ToString();
   EXPECT_GT(result.searchDisagreementMM, 0.5);
-  EXPECT_TRUE(std::any_of(result.reasons.begin(), result.reasons.end(),
-    [](const std::string& reason) { return reason.find("do not fix the pose") != std::string::npos; }))
-    << (result.reasons.empty() ? "no reasons" : result.reasons.front());
+  EXPECT_TRUE(FailedWith(result, xp::GateCode::AmbiguousPose)) << Described(result);
 }
 
 /** The head phantom's central 40 % of slices: a planning CT shorter than the X-rays' field. */
@@ -463,7 +523,7 @@ TEST(StereoRegistrationGate, ACTShorterThanTheFieldRegistersOnWhatItCovers)
   const xp::Pose truth = xp::Pose::Parse("3,-2,2,1,-1,1.5", "truth");
   const xp::StereoRegistrationResult result =
     xp::RegisterStereo(cropped.volume, cropped.planned, Eigen::Vector3d::Zero(), Simulate(full, truth, 6));
-  EXPECT_TRUE(result.ok) << (result.reasons.empty() ? "" : result.reasons.front());
+  EXPECT_TRUE(result.ok) << Described(result);
   EXPECT_LT((result.misalignment.translation - truth.translation).cwiseAbs().maxCoeff(), 1.2) << result.misalignment.ToString();
   EXPECT_LT(result.validFraction[0], 0.9);
 }
@@ -480,7 +540,5 @@ TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
   const xp::StereoRegistrationResult result =
     xp::RegisterStereo(cropped.volume, cropped.planned, Eigen::Vector3d::Zero(), Simulate(full, truth, 6), settings);
   EXPECT_FALSE(result.ok) << result.misalignment.ToString();
-  EXPECT_TRUE(std::any_of(result.reasons.begin(), result.reasons.end(),
-    [](const std::string& reason) { return reason.find("the CT does not cover what the X-ray shows") != std::string::npos; }))
-    << (result.reasons.empty() ? "no reasons" : result.reasons.front());
+  EXPECT_TRUE(FailedWith(result, xp::GateCode::UncoveredAnatomy)) << Described(result);
 }

@@ -1,0 +1,111 @@
+// The quality gate on numbers alone: each limit fails its own code, at the right side of the
+// limit, and NaN evidence never passes.
+#include "xpError.h"
+#include "xpQualityGate.h"
+#include "xpStereoRegistration.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace
+{
+
+xp::GateEvidence GoodEvidence()
+{
+  xp::GateEvidence evidence;
+  evidence.misalignment = xp::Pose::Parse("3,-2,1,1,-1,0.5", "pose");
+  evidence.converged = true;
+  for (const char* name : { "A", "B" })
+  {
+    xp::ViewEvidence view;
+    view.name = name;
+    view.explained = 0.3;
+    view.uncovered = 0.01;
+    view.residualMM = 0.1;
+    view.residualDegrees = 0.1;
+    evidence.views.push_back(view);
+  }
+  return evidence;
+}
+
+std::vector<xp::GateCode> Codes(const xp::GateEvidence& evidence, const xp::StereoRegistrationSettings& settings = {})
+{
+  std::vector<xp::GateCode> codes;
+  for (const xp::GateFailure& failure : xp::CheckQuality(evidence, settings))
+    codes.push_back(failure.code);
+  return codes;
+}
+
+using Codes_t = std::vector<xp::GateCode>;
+
+} // namespace
+
+TEST(QualityGate, PassesGoodEvidence)
+{
+  EXPECT_TRUE(xp::CheckQuality(GoodEvidence(), {}).empty());
+}
+
+TEST(QualityGate, EachLimitFailsItsOwnCodeAndNamesTheView)
+{
+  xp::StereoRegistrationSettings settings;
+  xp::GateEvidence e = GoodEvidence();
+  e.converged = false;
+  e.stopReason = "evaluation limit";
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::NotConverged });
+
+  e = GoodEvidence();
+  e.misalignment.translation = Eigen::Vector3d(30, 30, 30); // 52 mm long, 30 on each axis
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::TranslationTooLarge });
+  e = GoodEvidence();
+  e.misalignment.yaw = 10.5;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::RotationTooLarge });
+  e = GoodEvidence();
+  e.ambiguous = true;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::AmbiguousPose });
+
+  e = GoodEvidence();
+  e.views[1].explained = settings.minExplained - 0.001;
+  const std::vector<xp::GateFailure> low = xp::CheckQuality(e, settings);
+  ASSERT_EQ(low.size(), 1u);
+  EXPECT_EQ(low[0].code, xp::GateCode::LowExplained);
+  EXPECT_EQ(low[0].view, 1);
+  EXPECT_NE(low[0].message.find("view B"), std::string::npos) << low[0].message;
+  e.views[1].explained = settings.minExplained; // on the limit passes
+  EXPECT_TRUE(Codes(e).empty());
+
+  e = GoodEvidence();
+  e.views[0].uncovered = settings.maxUncovered + 0.01;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::UncoveredAnatomy });
+  e = GoodEvidence();
+  e.views[0].residualMM = settings.maxViewResidual + 0.01;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::ViewDisagrees });
+  e = GoodEvidence();
+  e.views[0].residualDegrees = -(settings.maxViewResidualDegrees + 0.01); // a turn either way
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::ViewDisagrees });
+}
+
+TEST(QualityGate, NaNEvidenceFails)
+{
+  xp::GateEvidence e = GoodEvidence();
+  e.misalignment.translation[2] = std::nan("");
+  e.misalignment.pitch = std::nan("");
+  e.views[0].explained = std::nan("");
+  e.views[0].uncovered = std::nan("");
+  e.views[1].residualMM = std::nan("");
+  EXPECT_EQ(Codes(e), (Codes_t{ xp::GateCode::TranslationTooLarge, xp::GateCode::RotationTooLarge, xp::GateCode::LowExplained,
+                        xp::GateCode::UncoveredAnatomy, xp::GateCode::ViewDisagrees }));
+}
+
+TEST(QualityGate, InvalidLimitsAreRefusedAndCodesHaveStableNames)
+{
+  xp::StereoRegistrationSettings settings;
+  settings.maxViewResidualDegrees = std::nan("");
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings = {};
+  settings.minExplained = 1.5;
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  EXPECT_NO_THROW(xp::ValidateGateLimits({}));
+  EXPECT_STREQ(xp::GateCodeName(xp::GateCode::LowExplained), "low_explained");
+  EXPECT_STREQ(xp::GateCodeName(xp::GateCode::AmbiguousPose), "ambiguous_pose");
+}

@@ -1,0 +1,93 @@
+// result.json: what is written is read back whole, and a damaged record is refused with the
+// file and the field named.
+#include "xpError.h"
+#include "xpRegistrationRecord.h"
+
+#include <gtest/gtest.h>
+
+namespace
+{
+
+xp::RegistrationRecord FailedRecord()
+{
+  xp::StereoRegistrationResult result;
+  result.ok = false;
+  result.misalignment = xp::Pose::Parse("1.25,-2.5,0.125,0.5,-0.25,1", "pose");
+  result.correction = result.misalignment.Inverse();
+  result.mutualInformation = { 0.61, 0.57 };
+  result.explained = { 0.21, 0.12 };
+  result.uncovered = { 0.0, 0.03 };
+  result.viewResidualMM = { 0.02, 0.4 };
+  result.validFraction = { 0.45, 0.5 };
+  result.objective = 0.7;
+  result.failures = { { xp::GateCode::LowExplained, 1, "view right: the final DRR explains 0.120" } };
+  result.drrCount = 1234;
+  result.evaluations = 600;
+  result.stages = { { "coarse search", 0, 1.5 }, { "fine", 400, 2.25 } };
+  result.objectiveTrace = { 0.1, 0.3, 0.7 };
+  xp::RegistrationRecord record = xp::MakeRegistrationRecord(result, { "left", "right" });
+  record.totalSeconds = 4.5;
+  return record;
+}
+
+} // namespace
+
+TEST(RegistrationRecord, RoundTripsEveryField)
+{
+  xp::RegistrationRecord written = FailedRecord();
+  xp::RegistrationRecordInputs& in = written.inputs.emplace();
+  in.ct = "/data/ct";
+  in.xrays = { "/data/a.png", "/data/b.png" };
+  in.xrayMD5 = { "0123", "4567" };
+  in.muWater = 0.0193;
+  in.removeTable = true;
+  const xp::RegistrationRecord read = xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(written), "result.json");
+  EXPECT_FALSE(read.ok);
+  EXPECT_EQ(read.viewNames, written.viewNames) << "the views keep the geometry's order, not the alphabet's";
+  EXPECT_LT((read.misalignment.translation - written.misalignment.translation).norm(), 1e-9);
+  EXPECT_DOUBLE_EQ(read.misalignment.yaw, 1.0);
+  EXPECT_NEAR(read.correction.pitch, written.correction.pitch, 1e-9); // 10 significant digits
+  EXPECT_EQ(read.explained, written.explained);
+  EXPECT_EQ(read.viewResidualMM, written.viewResidualMM);
+  ASSERT_EQ(read.failures.size(), 1u);
+  EXPECT_EQ(read.failures[0].code, xp::GateCode::LowExplained);
+  EXPECT_EQ(read.failures[0].view, 1);
+  EXPECT_EQ(read.Reasons(), written.Reasons());
+  EXPECT_EQ(read.drrCount, 1234);
+  EXPECT_DOUBLE_EQ(read.totalSeconds, 4.5);
+  ASSERT_EQ(read.stages.size(), 2u);
+  EXPECT_EQ(read.stages[1].firstEvaluation, 400);
+  EXPECT_EQ(read.objectiveTrace, written.objectiveTrace);
+  ASSERT_TRUE(read.inputs.has_value());
+  EXPECT_EQ(read.inputs->xrays, in.xrays);
+  EXPECT_TRUE(read.inputs->removeTable);
+  EXPECT_FALSE(xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r").inputs.has_value());
+}
+
+TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)
+{
+  const std::string good = xp::RegistrationRecordJSON(FailedRecord());
+  const auto refusal = [](const std::string& text)
+  {
+    try
+    {
+      xp::ParseRegistrationRecord(text, "run/result.json");
+    }
+    catch (const xp::InputError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(refusal("{\"status\": \"ok\"").find("run/result.json"), std::string::npos) << "not JSON";
+  EXPECT_NE(refusal("{\"status\": \"ok\"}").find("field 'misalignment"), std::string::npos);
+  std::string text = good;
+  text.replace(text.find("\"failed\""), 8, "\"maybe\"");
+  EXPECT_NE(refusal(text).find("'status'"), std::string::npos) << refusal(text);
+  text = good;
+  text.replace(text.find("\"low_explained\""), 15, "\"low_mood\"");
+  EXPECT_NE(refusal(text).find("unknown code 'low_mood'"), std::string::npos) << refusal(text);
+  text = good;
+  text.replace(text.find("\"failed\""), 8, "\"ok\"");
+  EXPECT_NE(refusal(text).find("'failures'"), std::string::npos) << "ok with failures: " << refusal(text);
+}

@@ -1,0 +1,117 @@
+#include "xpQualityGate.h"
+
+#include "xpError.h"
+#include "xpStereoRegistration.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace xp
+{
+
+namespace
+{
+
+std::string Format(const char* format, double a, double b = 0.0, double c = 0.0)
+{
+  char text[240];
+  std::snprintf(text, sizeof(text), format, a, b, c);
+  return text;
+}
+
+} // namespace
+
+const char* GateCodeName(GateCode code)
+{
+  switch (code)
+  {
+    case GateCode::InvalidInput:
+      return "invalid_input";
+    case GateCode::NotConverged:
+      return "not_converged";
+    case GateCode::TranslationTooLarge:
+      return "translation_too_large";
+    case GateCode::RotationTooLarge:
+      return "rotation_too_large";
+    case GateCode::AmbiguousPose:
+      return "ambiguous_pose";
+    case GateCode::LowExplained:
+      return "low_explained";
+    case GateCode::UncoveredAnatomy:
+      return "uncovered_anatomy";
+    case GateCode::ViewDisagrees:
+      return "view_disagrees";
+  }
+  return "unknown";
+}
+
+std::vector<std::string> GateMessages(const std::vector<GateFailure>& failures)
+{
+  std::vector<std::string> messages;
+  for (const GateFailure& failure : failures)
+    messages.push_back(failure.message);
+  return messages;
+}
+
+void ValidateGateLimits(const StereoRegistrationSettings& settings)
+{
+  for (const auto& [limit, name] : { std::make_pair(settings.maxTranslation, "maxTranslation"),
+         std::make_pair(settings.maxRotation, "maxRotation"), std::make_pair(settings.maxViewResidual, "maxViewResidual"),
+         std::make_pair(settings.maxViewResidualDegrees, "maxViewResidualDegrees"),
+         std::make_pair(settings.maxUncovered, "maxUncovered") })
+  {
+    if (!(limit > 0.0 && std::isfinite(limit)))
+    {
+      throw InputError(std::string("registration settings: ") + name, "must be finite and positive");
+    }
+  }
+  if (!(settings.minExplained >= 0.0 && settings.minExplained <= 1.0))
+  {
+    throw InputError("registration settings: minExplained", "must be between 0 and 1");
+  }
+}
+
+std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const StereoRegistrationSettings& settings)
+{
+  std::vector<GateFailure> failures;
+  if (!evidence.converged)
+    failures.push_back({ GateCode::NotConverged, -1, "the optimiser did not converge (" + evidence.stopReason + ")" });
+  // Limits on the whole motion: the translation's length and the rotation's angle about its own
+  // axis, as the table would move. Every comparison is written so that a NaN fails it.
+  const Pose& m = evidence.misalignment;
+  if (!(m.translation.norm() <= settings.maxTranslation))
+    failures.push_back({ GateCode::TranslationTooLarge, -1,
+      Format("the correction's translation (%.1f mm) exceeds %.1f mm", m.translation.norm(), settings.maxTranslation) });
+  if (!(m.RotationAngle() <= settings.maxRotation))
+    failures.push_back({ GateCode::RotationTooLarge, -1,
+      Format("the correction's rotation (%.1f degrees) exceeds %.1f degrees", m.RotationAngle(), settings.maxRotation) });
+  if (evidence.ambiguous)
+    failures.push_back({ GateCode::AmbiguousPose, -1,
+      Format("two searches, from the pre-alignment and 1.5 mm / 1.5 degrees beside it, ended %.2f mm and %.2f degrees "
+             "apart at full resolution: the images do not fix the pose",
+        evidence.searchApartMM, evidence.searchApartDegrees) });
+  for (size_t v = 0; v < evidence.views.size(); ++v)
+  {
+    const ViewEvidence& view = evidence.views[v];
+    const int index = static_cast<int>(v);
+    if (!(view.explained >= settings.minExplained))
+      failures.push_back({ GateCode::LowExplained, index,
+        "view " + view.name +
+          Format(": the final DRR explains %.3f of the X-ray's information (< %.3f)", view.explained, settings.minExplained) });
+    // A CT shorter than the X-ray's field can slide to match the wrong level (a vertebra off)
+    // and still explain enough of what it covers: the anatomy it leaves unexplained shows it.
+    if (!(view.uncovered <= settings.maxUncovered))
+      failures.push_back({ GateCode::UncoveredAnatomy, index,
+        "view " + view.name +
+          Format(": %.0f %% of the valid pixels show anatomy where the CT has none at the result (> %.0f %%): the CT does "
+                 "not cover what the X-ray shows; a ROI around the anatomy the CT covers can exclude the rest",
+            100.0 * view.uncovered, 100.0 * settings.maxUncovered) });
+    if (!(view.residualMM <= settings.maxViewResidual && std::abs(view.residualDegrees) <= settings.maxViewResidualDegrees))
+      failures.push_back({ GateCode::ViewDisagrees, index,
+        "view " + view.name +
+          Format(" disagrees with the 3D result: residual %.2f mm, %.2f degrees in 2D", view.residualMM, view.residualDegrees) });
+  }
+  return failures;
+}
+
+} // namespace xp

@@ -1,0 +1,340 @@
+#include "xpRegistrationRecord.h"
+
+#include "xpError.h"
+
+#include <vtk_jsoncpp.h>
+
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+namespace xp
+{
+
+namespace
+{
+
+Json::Value PoseValue(const Pose& pose)
+{
+  Json::Value value(Json::objectValue);
+  Json::Value& t = value["translation_mm"] = Json::Value(Json::arrayValue);
+  for (int a = 0; a < 3; ++a)
+    t.append(pose.translation[a]);
+  value["rotation_deg"]["pitch"] = pose.pitch;
+  value["rotation_deg"]["roll"] = pose.roll;
+  value["rotation_deg"]["yaw"] = pose.yaw;
+  return value;
+}
+
+Json::Value PerView(const std::vector<std::string>& names, const std::vector<double>& values)
+{
+  Json::Value value(Json::objectValue);
+  for (size_t v = 0; v < names.size() && v < values.size(); ++v)
+    value[names[v]] = values[v];
+  return value;
+}
+
+template <typename T>
+Json::Value List(const std::vector<T>& items)
+{
+  Json::Value value(Json::arrayValue);
+  for (const T& item : items)
+    value.append(item);
+  return value;
+}
+
+/** A parsed record with errors that name the file and the field. */
+class Fields
+{
+public:
+  Fields(const Json::Value& root, const std::string& origin) : Root(root), Origin(origin) {}
+
+  const Json::Value& At(const std::string& dottedField) const
+  {
+    const Json::Value* value = &this->Root;
+    std::stringstream parts(dottedField);
+    std::string key;
+    while (std::getline(parts, key, '.'))
+    {
+      if (!value->isObject() || !value->isMember(key))
+        this->Fail(dottedField, "is missing (was it written by xpose register of this version?)");
+      value = &(*value)[key];
+    }
+    return *value;
+  }
+  bool Has(const std::string& field) const { return this->Root.isMember(field); }
+  double Number(const std::string& field) const
+  {
+    const Json::Value& value = this->At(field);
+    if (!value.isNumeric())
+      this->Fail(field, "must be a number");
+    return value.asDouble();
+  }
+  std::string Text(const std::string& field) const
+  {
+    const Json::Value& value = this->At(field);
+    if (!value.isString())
+      this->Fail(field, "must be a string");
+    return value.asString();
+  }
+  bool Bool(const std::string& field) const
+  {
+    const Json::Value& value = this->At(field);
+    if (!value.isBool())
+      this->Fail(field, "must be true or false");
+    return value.asBool();
+  }
+  std::vector<double> Numbers(const std::string& field) const
+  {
+    std::vector<double> numbers;
+    for (const Json::Value& item : this->Array(field))
+    {
+      if (!item.isNumeric())
+        this->Fail(field, "must list numbers");
+      numbers.push_back(item.asDouble());
+    }
+    return numbers;
+  }
+  std::vector<std::string> Texts(const std::string& field) const
+  {
+    std::vector<std::string> texts;
+    for (const Json::Value& item : this->Array(field))
+    {
+      if (!item.isString())
+        this->Fail(field, "must list strings");
+      texts.push_back(item.asString());
+    }
+    return texts;
+  }
+  const Json::Value& Array(const std::string& field) const
+  {
+    const Json::Value& value = this->At(field);
+    if (!value.isArray())
+      this->Fail(field, "must be a list");
+    return value;
+  }
+  Pose PoseAt(const std::string& field) const
+  {
+    const std::vector<double> t = this->Numbers(field + ".translation_mm");
+    if (t.size() != 3)
+      this->Fail(field + ".translation_mm", "must hold 3 numbers");
+    Pose pose;
+    pose.translation = Eigen::Vector3d(t[0], t[1], t[2]);
+    pose.pitch = this->Number(field + ".rotation_deg.pitch");
+    pose.roll = this->Number(field + ".rotation_deg.roll");
+    pose.yaw = this->Number(field + ".rotation_deg.yaw");
+    return pose;
+  }
+  std::vector<double> PerViewNumbers(const std::string& field, const std::vector<std::string>& names) const
+  {
+    std::vector<double> values;
+    for (const std::string& name : names)
+      values.push_back(this->Number(field + "." + name));
+    return values;
+  }
+  [[noreturn]] void Fail(const std::string& field, const std::string& what) const
+  {
+    throw InputError(this->Origin, "field '" + field + "' " + what);
+  }
+
+private:
+  const Json::Value& Root;
+  std::string Origin;
+};
+
+GateCode CodeNamed(const std::string& name, const Fields& fields)
+{
+  for (GateCode code : { GateCode::InvalidInput, GateCode::NotConverged, GateCode::TranslationTooLarge,
+         GateCode::RotationTooLarge, GateCode::AmbiguousPose, GateCode::LowExplained, GateCode::UncoveredAnatomy,
+         GateCode::ViewDisagrees })
+  {
+    if (name == GateCodeName(code))
+      return code;
+  }
+  fields.Fail("failures", "holds an unknown code '" + name + "'");
+}
+
+} // namespace
+
+std::vector<std::string> RegistrationRecord::Reasons() const
+{
+  return GateMessages(this->failures);
+}
+
+RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result, const std::vector<std::string>& viewNames)
+{
+  RegistrationRecord record;
+  record.ok = result.ok;
+  record.misalignment = result.misalignment;
+  record.correction = result.correction;
+  record.viewNames = viewNames;
+  record.similarity = result.mutualInformation;
+  record.explained = result.explained;
+  record.uncovered = result.uncovered;
+  record.viewResidualMM = result.viewResidualMM;
+  record.validFraction = result.validFraction;
+  record.objective = result.objective;
+  record.failures = result.failures;
+  record.drrCount = result.drrCount;
+  record.evaluations = result.evaluations;
+  record.prealignSeconds = result.prealignSeconds;
+  record.maskSeconds = result.maskSeconds;
+  record.fineSeconds = result.fineSeconds;
+  record.searchApartMM = result.searchDisagreementMM;
+  record.searchApartDegrees = result.searchDisagreementDegrees;
+  record.searchObjectiveRatio = result.searchObjectiveRatio;
+  record.stages = result.stages;
+  record.objectiveTrace = result.objectiveTrace;
+  return record;
+}
+
+std::string RegistrationRecordJSON(const RegistrationRecord& r)
+{
+  Json::Value root(Json::objectValue);
+  root["status"] = r.ok ? "ok" : "failed";
+  root["misalignment"] = PoseValue(r.misalignment);
+  root["correction"] = PoseValue(r.correction);
+  root["convention"] = CorrectionConvention;
+  root["views"] = List(r.viewNames);
+  root["similarity"] = PerView(r.viewNames, r.similarity);
+  root["similarity"]["objective"] = r.objective;
+  root["explained_information"] = PerView(r.viewNames, r.explained);
+  root["uncovered_fraction"] = PerView(r.viewNames, r.uncovered);
+  root["view_residual_mm"] = PerView(r.viewNames, r.viewResidualMM);
+  root["mask_valid_fraction"] = PerView(r.viewNames, r.validFraction);
+  root["drr_count"] = static_cast<Json::Int64>(r.drrCount);
+  root["evaluations"] = r.evaluations;
+  Json::Value& timing = root["timing_s"];
+  timing["read"] = r.readSeconds;
+  timing["prealign"] = r.prealignSeconds;
+  timing["mask"] = r.maskSeconds;
+  timing["fine"] = r.fineSeconds;
+  timing["total"] = r.totalSeconds;
+  root["search_disagreement"]["mm"] = r.searchApartMM;
+  root["search_disagreement"]["degrees"] = r.searchApartDegrees;
+  root["search_disagreement"]["objective_ratio"] = r.searchObjectiveRatio;
+  root["reasons"] = List(r.Reasons());
+  Json::Value& failures = root["failures"] = Json::Value(Json::arrayValue);
+  for (const GateFailure& failure : r.failures)
+  {
+    Json::Value item(Json::objectValue);
+    item["code"] = GateCodeName(failure.code);
+    item["view"] = failure.view >= 0 && failure.view < static_cast<int>(r.viewNames.size()) ? Json::Value(r.viewNames[failure.view])
+                                                                                              : Json::Value(Json::nullValue);
+    item["message"] = failure.message;
+    failures.append(item);
+  }
+  if (r.inputs)
+  {
+    const RegistrationRecordInputs& in = *r.inputs;
+    Json::Value& inputs = root["inputs"];
+    inputs["ct"] = in.ct;
+    inputs["series"] = in.series;
+    inputs["geometry"] = in.geometry;
+    inputs["xrays"] = List(in.xrays);
+    inputs["xray_md5"] = List(in.xrayMD5);
+    inputs["rois"] = List(in.rois);
+    inputs["size"] = in.size;
+    inputs["iso_ct"] = in.isocenterInCT;
+    inputs["mu_water"] = in.muWater;
+    inputs["entropy_mask"] = in.entropyMask;
+    inputs["remove_table"] = in.removeTable;
+  }
+  Json::Value& stages = root["convergence"]["stages"] = Json::Value(Json::arrayValue);
+  for (const RegistrationStage& stage : r.stages)
+  {
+    Json::Value item(Json::objectValue);
+    item["name"] = stage.name;
+    item["first_evaluation"] = stage.firstEvaluation;
+    item["seconds"] = stage.seconds;
+    stages.append(item);
+  }
+  root["convergence"]["objective"] = List(r.objectiveTrace);
+  Json::StreamWriterBuilder builder;
+  builder["indentation"] = "  ";
+  builder["precision"] = 10; // significant digits: micrometres on a metre, no binary noise
+  return Json::writeString(builder, root) + "\n";
+}
+
+RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::string& origin)
+{
+  Json::Value root;
+  std::string errors;
+  const std::unique_ptr<Json::CharReader> reader(Json::CharReaderBuilder().newCharReader());
+  if (!reader->parse(text.data(), text.data() + text.size(), &root, &errors) || !root.isObject())
+    throw InputError(origin, "is not valid JSON: " + errors);
+  const Fields f(root, origin);
+  RegistrationRecord r;
+  const std::string status = f.Text("status");
+  if (status != "ok" && status != "failed")
+    f.Fail("status", "must be \"ok\" or \"failed\"");
+  r.ok = status == "ok";
+  r.misalignment = f.PoseAt("misalignment");
+  r.correction = f.PoseAt("correction");
+  r.viewNames = f.Texts("views");
+  r.similarity = f.PerViewNumbers("similarity", r.viewNames);
+  r.objective = f.Number("similarity.objective");
+  r.explained = f.PerViewNumbers("explained_information", r.viewNames);
+  r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames);
+  r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames);
+  r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames);
+  r.drrCount = static_cast<long long>(f.Number("drr_count"));
+  r.evaluations = static_cast<int>(f.Number("evaluations"));
+  r.readSeconds = f.Number("timing_s.read");
+  r.prealignSeconds = f.Number("timing_s.prealign");
+  r.maskSeconds = f.Number("timing_s.mask");
+  r.fineSeconds = f.Number("timing_s.fine");
+  r.totalSeconds = f.Number("timing_s.total");
+  r.searchApartMM = f.Number("search_disagreement.mm");
+  r.searchApartDegrees = f.Number("search_disagreement.degrees");
+  r.searchObjectiveRatio = f.Number("search_disagreement.objective_ratio");
+  for (const Json::Value& item : f.Array("failures"))
+  {
+    if (!item.isObject() || !item["code"].isString() || !item["message"].isString())
+      f.Fail("failures", "must list {code, view, message}");
+    int view = -1;
+    for (size_t v = 0; item["view"].isString() && v < r.viewNames.size(); ++v)
+      view = r.viewNames[v] == item["view"].asString() ? static_cast<int>(v) : view;
+    r.failures.push_back({ CodeNamed(item["code"].asString(), f), view, item["message"].asString() });
+  }
+  if (r.ok != r.failures.empty())
+    f.Fail("failures", "must be empty exactly when status is ok");
+  if (f.Has("inputs"))
+  {
+    RegistrationRecordInputs in;
+    in.ct = f.Text("inputs.ct");
+    in.series = f.Text("inputs.series");
+    in.geometry = f.Text("inputs.geometry");
+    in.xrays = f.Texts("inputs.xrays");
+    in.xrayMD5 = f.Texts("inputs.xray_md5");
+    in.rois = f.Texts("inputs.rois");
+    in.size = f.Text("inputs.size");
+    in.isocenterInCT = f.Text("inputs.iso_ct");
+    in.muWater = f.Number("inputs.mu_water");
+    in.entropyMask = f.Bool("inputs.entropy_mask");
+    in.removeTable = f.Bool("inputs.remove_table");
+    if (in.xrayMD5.size() != in.xrays.size())
+      f.Fail("inputs.xray_md5", "must hold one MD5 per X-ray");
+    r.inputs = in;
+  }
+  for (const Json::Value& stage : f.Array("convergence.stages"))
+  {
+    if (!stage.isObject() || !stage["name"].isString() || !stage["first_evaluation"].isInt())
+      f.Fail("convergence.stages", "must list {name, first_evaluation}");
+    r.stages.push_back({ stage["name"].asString(), stage["first_evaluation"].asInt(), stage["seconds"].asDouble() });
+  }
+  r.objectiveTrace = f.Numbers("convergence.objective");
+  return r;
+}
+
+RegistrationRecord ReadRegistrationRecord(const std::string& path)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw InputError(path, "cannot be read");
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseRegistrationRecord(text.str(), path);
+}
+
+} // namespace xp

@@ -1,0 +1,74 @@
+/**
+ * @file xpRegistrationRecord.h
+ * @brief result.json: the record of one registration, written and read by this one unit
+ *        (jsoncpp) for `xpose register`, `xpose report`, the Python example and the tests.
+ *
+ * The record holds what a clinical user acts on (status, correction, the gate's failures with
+ * their codes), the figures behind it (similarity, explained information, masks, timing), and,
+ * when a command wrote it, the inputs that let `xpose report` rebuild the pictures.
+ */
+#ifndef xpRegistrationRecord_h
+#define xpRegistrationRecord_h
+
+#include "vtkXPRegistrationModule.h"
+
+#include "xpStereoRegistration.h"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace xp
+{
+
+/** How the record's poses are to be read (GEOMETRY.md). */
+inline constexpr const char* CorrectionConvention =
+  "IEC 61217 fixed; p' = R(p - iso) + iso + t; R = Rz(yaw) Ry(roll) Rx(pitch)";
+
+/** The files and options a command registered; absolute paths. */
+struct RegistrationRecordInputs
+{
+  std::string ct, series, geometry;
+  std::vector<std::string> xrays, xrayMD5, rois;
+  std::string size, isocenterInCT;
+  double muWater = 0.0;
+  bool entropyMask = true;
+  bool removeTable = false;
+};
+
+struct RegistrationRecord
+{
+  bool ok = false;
+  Pose misalignment, correction;
+  std::vector<std::string> viewNames;
+  std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
+  double objective = 0.0;
+  std::vector<GateFailure> failures;
+  long long drrCount = 0;
+  int evaluations = 0;
+  double readSeconds = 0.0, prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
+  double searchApartMM = 0.0, searchApartDegrees = 0.0, searchObjectiveRatio = 1.0;
+  std::vector<RegistrationStage> stages;
+  std::vector<double> objectiveTrace;
+  std::optional<RegistrationRecordInputs> inputs; ///< absent when no command wrote the record
+
+  std::vector<std::string> Reasons() const;
+};
+
+/** The record of a result whose views carry `viewNames`; timings of reading and of the whole
+ *  run are the caller's. */
+VTKXPREGISTRATION_EXPORT RegistrationRecord MakeRegistrationRecord(
+  const StereoRegistrationResult& result, const std::vector<std::string>& viewNames);
+
+/** result.json's text. */
+VTKXPREGISTRATION_EXPORT std::string RegistrationRecordJSON(const RegistrationRecord& record);
+
+/** Parses result.json's text; throws xp::InputError naming `origin` (the file) and the field. */
+VTKXPREGISTRATION_EXPORT RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::string& origin);
+
+/** Reads and parses a result.json file. */
+VTKXPREGISTRATION_EXPORT RegistrationRecord ReadRegistrationRecord(const std::string& path);
+
+} // namespace xp
+
+#endif
