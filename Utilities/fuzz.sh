@@ -15,7 +15,7 @@ targets=("$@")
 command -v clang++ >/dev/null || { echo "fuzz.sh: needs clang (apt-get install clang libclang-rt-14-dev)"; exit 2; }
 
 build=build-fuzz
-CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DXPOSE_BUILD_FUZZERS=ON >/dev/null
+CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DXPOSE_BUILD_FUZZERS=ON -DXPOSE_WRAP_PYTHON=OFF >/dev/null
 cmake --build "$build" --target xpose TestXPIO $(printf 'xpFuzz%s ' "${targets[@]}")
 
 # Seeds: what the IO tests write, and a small phantom CT, DRR and mask made by xpose.

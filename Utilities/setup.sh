@@ -10,6 +10,7 @@ packages=(
   libeigen3-dev libnlopt-cxx-dev libopencv-dev libcli11-dev
   libgtest-dev libbenchmark-dev
   libxrl-dev                                  # xraylib: X-ray cross sections for the simulator
+  python3-vtk9 python3-dev                    # the xpose Python package, wrapped against Debian's VTK
   xvfb xauth                                  # off-screen rendering tests on a virtual display
 )
 sudo=""

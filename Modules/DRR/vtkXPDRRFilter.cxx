@@ -1,5 +1,7 @@
 #include "vtkXPDRRFilter.h"
 
+#include "xpStereoGeometry.h"
+
 #include "xpAttenuationVolume.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
@@ -47,6 +49,57 @@ void vtkXPDRRFilter::SetMisalignment(const xp::Pose& pose)
 {
   this->Misalignment = pose;
   this->Modified();
+}
+
+bool vtkXPDRRFilter::SetViewFromGeometryFile(const char* path, int viewIndex)
+{
+  try
+  {
+    const xp::StereoGeometry geometry = xp::ReadStereoGeometry(path ? path : "");
+    if (viewIndex < 0 || viewIndex >= static_cast<int>(geometry.views.size()))
+      throw xp::InputError(path, "has no view " + std::to_string(viewIndex));
+    this->SetView(geometry.views[viewIndex]);
+    xp::PatientSetup setup = this->Setup;
+    setup.roomIsocenter = geometry.isocenter;
+    this->SetPatientSetup(setup);
+    return true;
+  }
+  catch (const xp::Error& e)
+  {
+    this->LastError = e.what();
+    vtkErrorMacro(<< e.what());
+    return false;
+  }
+}
+
+bool vtkXPDRRFilter::SetPatientPosition(const char* dicomPatientPosition)
+{
+  try
+  {
+    xp::PatientSetup setup = this->Setup;
+    setup.position = xp::ParsePatientPosition(dicomPatientPosition ? dicomPatientPosition : "", "patient position");
+    this->SetPatientSetup(setup);
+    return true;
+  }
+  catch (const xp::Error& e)
+  {
+    this->LastError = e.what();
+    vtkErrorMacro(<< e.what());
+    return false;
+  }
+}
+
+void vtkXPDRRFilter::SetIsocenterInCT(double x, double y, double z)
+{
+  xp::PatientSetup setup = this->Setup;
+  setup.isocenterInCT = Eigen::Vector3d(x, y, z);
+  this->SetPatientSetup(setup);
+}
+
+void vtkXPDRRFilter::SetMisalignmentParameters(double tx, double ty, double tz, double pitch, double roll, double yaw)
+{
+  const double parameters[6] = { tx, ty, tz, pitch, roll, yaw };
+  this->SetMisalignment(xp::Pose::FromParameters(parameters));
 }
 
 xp::XRayView vtkXPDRRFilter::GetOutputView() const

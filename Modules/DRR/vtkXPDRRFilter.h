@@ -58,6 +58,17 @@ public:
   const xp::Pose& GetMisalignment() const { return this->Misalignment; }
 
   ///@{
+  /** The value types above in plain numbers and text, for Python. Each returns false on bad
+   *  input and says why in GetLastError(). A geometry file's view becomes the view, and its
+   *  isocentre the room isocentre. */
+  bool SetViewFromGeometryFile(const char* path, int viewIndex);
+  bool SetPatientPosition(const char* dicomPatientPosition);
+  void SetIsocenterInCT(double x, double y, double z);
+  void SetMisalignmentParameters(double tx, double ty, double tz, double pitch, double roll, double yaw);
+  const char* GetLastError() const { return this->LastError.c_str(); }
+  ///@}
+
+  ///@{
   /** Attenuation of water in 1/mm: mu = MuWater (1 + HU/1000), clamped at 0. */
   vtkSetClampMacro(MuWater, double, 1e-6, 1.0);
   vtkGetMacro(MuWater, double);
@@ -109,6 +120,7 @@ private:
   xp::XRayView View;
   xp::Pose Misalignment;
   xp::PatientSetup Setup;
+  std::string LastError;
   double MuWater = xp::WaterAttenuationPerMM;
   double StepSize = 0.0;
   int Method = 0;

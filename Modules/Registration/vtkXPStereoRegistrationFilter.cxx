@@ -4,6 +4,7 @@
 #include "xpError.h"
 #include "xpImageGeometry.h"
 #include "xpImageRows.h"
+#include "xpRegistrationRecord.h"
 
 #include <vtkCommand.h>
 #include <vtkImageData.h>
@@ -62,6 +63,67 @@ void vtkXPStereoRegistrationFilter::SetSettings(const xp::StereoRegistrationSett
 {
   this->Settings = settings;
   this->Modified();
+}
+
+bool vtkXPStereoRegistrationFilter::ReadGeometry(const char* path)
+{
+  try
+  {
+    const xp::StereoGeometry geometry = xp::ReadStereoGeometry(path ? path : "");
+    xp::ValidateStereoGeometry(geometry, path);
+    this->SetGeometry(geometry);
+    xp::PatientSetup setup = this->Setup;
+    setup.roomIsocenter = geometry.isocenter;
+    this->SetPatientSetup(setup);
+    return true;
+  }
+  catch (const xp::Error& e)
+  {
+    this->LastError = e.what();
+    vtkErrorMacro(<< e.what());
+    return false;
+  }
+}
+
+bool vtkXPStereoRegistrationFilter::SetPatientPosition(const char* dicomPatientPosition)
+{
+  try
+  {
+    xp::PatientSetup setup = this->Setup;
+    setup.position = xp::ParsePatientPosition(dicomPatientPosition ? dicomPatientPosition : "", "patient position");
+    this->SetPatientSetup(setup);
+    return true;
+  }
+  catch (const xp::Error& e)
+  {
+    this->LastError = e.what();
+    vtkErrorMacro(<< e.what());
+    return false;
+  }
+}
+
+void vtkXPStereoRegistrationFilter::SetIsocenterInCT(double x, double y, double z)
+{
+  xp::PatientSetup setup = this->Setup;
+  setup.isocenterInCT = Eigen::Vector3d(x, y, z);
+  this->SetPatientSetup(setup);
+}
+
+void vtkXPStereoRegistrationFilter::SetEntropyMask(bool on)
+{
+  if (on != this->Settings.entropyMask)
+  {
+    this->Settings.entropyMask = on;
+    this->Modified();
+  }
+}
+
+std::string vtkXPStereoRegistrationFilter::GetResultJSON() const
+{
+  std::vector<std::string> names;
+  for (const xp::XRayView& view : this->Geometry.views)
+    names.push_back(view.name);
+  return xp::RegistrationRecordJSON(xp::MakeRegistrationRecord(this->Result, names));
 }
 
 int vtkXPStereoRegistrationFilter::FillInputPortInformation(int port, vtkInformation* info)
@@ -273,6 +335,10 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
       this->UpdateProgress(progress.fraction);
     };
     this->Result = xp::RegisterStereo(volume, planned, this->Geometry.isocenter, views, this->Settings, observer);
+    const std::array<double, 6> misalignment = this->Result.misalignment.Parameters();
+    const std::array<double, 6> correction = this->Result.correction.Parameters();
+    std::copy(misalignment.begin(), misalignment.end(), this->MisalignmentParameters);
+    std::copy(correction.begin(), correction.end(), this->CorrectionParameters);
     this->WriteOutputs(outputVector);
   }
   catch (const xp::Error& e)

@@ -30,6 +30,7 @@
 #include "xpStereoRegistration.h"
 
 #include <memory>
+#include <string>
 
 class VTKXPREGISTRATION_EXPORT vtkXPStereoRegistrationFilter : public vtkImageAlgorithm
 {
@@ -70,6 +71,25 @@ public:
   /** Method settings: entropy mask on/off, bins, evaluation limit, gate limits. */
   void SetSettings(const xp::StereoRegistrationSettings& settings);
   const xp::StereoRegistrationSettings& GetSettings() const { return this->Settings; }
+
+  ///@{
+  /** The value types above in plain numbers and text, for Python. Each returns false on bad
+   *  input and says why in GetLastError(). A geometry file becomes the geometry, and its
+   *  isocentre the room isocentre of the patient set-up. */
+  bool ReadGeometry(const char* path);
+  bool SetPatientPosition(const char* dicomPatientPosition);
+  void SetIsocenterInCT(double x, double y, double z);
+  void SetEntropyMask(bool on);
+  bool GetEntropyMask() const { return this->Settings.entropyMask; }
+  /** After an update: ok (the correction may be applied) or failed. */
+  bool GetResultOk() const { return this->Result.ok; }
+  /** tx, ty, tz (mm), pitch, roll, yaw (degrees) in Room terms (GEOMETRY.md). */
+  vtkGetVector6Macro(MisalignmentParameters, double);
+  vtkGetVector6Macro(CorrectionParameters, double);
+  /** The result as the record `xpose register` writes to result.json, without its inputs. */
+  std::string GetResultJSON() const;
+  const char* GetLastError() const { return this->LastError.c_str(); }
+  ///@}
 
   /** The outcome of the last update (on refused inputs: not ok, one InvalidInput failure). */
   const xp::StereoRegistrationResult& GetResult() const { return this->Result; }
@@ -121,6 +141,9 @@ private:
   xp::StereoRegistrationSettings Settings;
   xp::StereoRegistrationResult Result;
   double LastObjective = 0.0;
+  double MisalignmentParameters[6] = { 0, 0, 0, 0, 0, 0 };
+  double CorrectionParameters[6] = { 0, 0, 0, 0, 0, 0 };
+  std::string LastError;
 
   std::unique_ptr<xp::AttenuationVolume> Volume;
   vtkImageData* VolumeSource = nullptr; ///< compared, never dereferenced

@@ -11,3 +11,15 @@ foreach(step
   endif()
 endforeach()
 message(STATUS "consumer output: ${out}")
+
+# The Python package from the installed tree alone: import it and run a filter.
+if(PYTHON_EXECUTABLE)
+  execute_process(
+    COMMAND "${CMAKE_COMMAND}" -E env "PYTHONPATH=${PREFIX}/${PYTHON_DESTINATION}"
+      "${PYTHON_EXECUTABLE}" -c "import xpose, sys; f = xpose.vtkXPStereoRegistrationFilter(); print(xpose.__file__); sys.exit(0 if f.GetShrinkFactor() == 1 else 1)"
+    RESULT_VARIABLE result OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT result EQUAL 0 OR NOT out MATCHES "^${PREFIX}/")
+    message(FATAL_ERROR "import xpose from ${PREFIX}/${PYTHON_DESTINATION} failed (${result}):\n${out}\n${err}")
+  endif()
+  message(STATUS "python: import xpose from ${out}")
+endif()
