@@ -1,6 +1,7 @@
 #include "xpCommands.h"
 #include "xpRegistrationInputs.h"
 #include "xpEvaluation.h"
+#include "xpTargetError.h"
 #include "xpModelXRaySimulator.h"
 #include "xpXRayPhysics.h"
 
@@ -38,72 +39,6 @@ namespace
 {
 
 using Clock = std::chrono::steady_clock;
-
-constexpr double TargetHU = 150.0;       ///< bone
-constexpr double TargetRadius = 60.0;    ///< mm around the isocentre
-constexpr size_t MaximumTargets = 20000; ///< plenty for a mean; keeps the TRE cheap
-
-/**
- * The target region of the mTRE: CT voxels above 150 HU within 60 mm of the isocentre (the bone
- * the treatment is aimed by), in planned room coordinates, thinned evenly to at most 20000.
- */
-std::vector<Eigen::Vector3d> TargetPoints(vtkImageData* ct, const Eigen::Vector3d& isoInCT, const Eigen::Isometry3d& planned)
-{
-  const Eigen::Affine3d toPhysical = IndexToPhysical(ct);
-  int dims[3];
-  ct->GetDimensions(dims);
-  vtkDataArray* hu = ct->GetPointData()->GetScalars();
-  std::vector<Eigen::Vector3d> targets;
-  for (int k = 0; k < dims[2]; ++k)
-    for (int j = 0; j < dims[1]; ++j)
-      for (int i = 0; i < dims[0]; ++i)
-      {
-        const Eigen::Vector3d p = toPhysical * Eigen::Vector3d(i, j, k);
-        if ((p - isoInCT).norm() <= TargetRadius &&
-          hu->GetComponent(i + static_cast<vtkIdType>(dims[0]) * (j + static_cast<vtkIdType>(dims[1]) * k), 0) > TargetHU)
-          targets.push_back(planned * p);
-      }
-  if (targets.empty())
-  {
-    throw InputError("--ct", "has no voxel above 150 HU within 60 mm of the isocentre: no target region for the mTRE");
-  }
-  const size_t stride = (targets.size() + MaximumTargets - 1) / MaximumTargets;
-  std::vector<Eigen::Vector3d> thinned;
-  for (size_t n = 0; n < targets.size(); n += stride)
-    thinned.push_back(targets[n]);
-  return thinned;
-}
-
-/** Mean distance between the targets moved by two misalignments (about the room isocentre). */
-double MeanTRE(const std::vector<Eigen::Vector3d>& targets, const Pose& a, const Pose& b, const Eigen::Vector3d& iso)
-{
-  const Eigen::Isometry3d ta = a.ToTransform(iso), tb = b.ToTransform(iso);
-  double sum = 0.0;
-  for (const Eigen::Vector3d& q : targets)
-    sum += (ta * q - tb * q).norm();
-  return sum / targets.size();
-}
-
-/**
- * The misalignment of trial `trial`: a translation of length uniform in [min, max] mm in a uniform
- * direction, and each angle uniform in [-maxRotation, maxRotation]. Depends only on the seed and
- * the trial number, so an interrupted evaluation resumes with the same trials.
- */
-Pose DrawMisalignment(unsigned seed, int trial, const EvaluateOptions& options, std::mt19937& random)
-{
-  std::seed_seq sequence{ seed, static_cast<unsigned>(trial) };
-  random.seed(sequence);
-  std::normal_distribution<double> gaussian;
-  std::uniform_real_distribution<double> length(options.minTranslation, options.maxTranslation);
-  std::uniform_real_distribution<double> angle(-options.maxRotation, options.maxRotation);
-  Eigen::Vector3d direction(gaussian(random), gaussian(random), gaussian(random));
-  Pose pose;
-  pose.translation = direction.normalized() * length(random);
-  pose.pitch = angle(random);
-  pose.roll = angle(random);
-  pose.yaw = angle(random);
-  return pose;
-}
 
 /** The slices of `ct` whose index lies in the central `fraction` of its length (same LPS placement). */
 vtkSmartPointer<vtkImageData> CropSlices(vtkImageData* ct, double fraction)
@@ -158,7 +93,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << o.settings.maxSearchDisagreementMM << ", \"max_search_apart_deg\": " << o.settings.maxSearchDisagreementDegrees << "}"
        << ",\n  \"remove_table\": " << (o.removeTable && o.scenario == "clinical" ? "true" : "false") << ",\n  \"x_rays\": " << model
        << ",\n  \"success_mtre_mm\": " << o.successMTRE << ",\n  \"target_region\": \"CT voxels above " << TargetHU
-       << " HU within " << TargetRadius << " mm of the isocentre\"\n}\n";
+       << " HU within " << TargetRadiusMM << " mm of the isocentre\"\n}\n";
   return text.str();
 }
 
@@ -336,7 +271,7 @@ int RunEvaluate(const EvaluateOptions& options)
       remaining += !done.count({ trial, approach });
   for (int trial = 1; trial <= options.trials; ++trial)
   {
-    const Pose truth = DrawMisalignment(options.seed, trial, options, random);
+    const Pose truth = DrawMisalignment(options.seed, trial, { options.minTranslation, options.maxTranslation, options.maxRotation }, random);
     const double initialMTRE = MeanTRE(targets, truth, Pose{}, roomIso);
     bool simulated = false;
     std::vector<RegistrationView> views;

@@ -1,7 +1,12 @@
-// The records of `xpose evaluate`: one CSV row per trial and approach, and the summary of them
-// (internal to the xpose application; tests read it too).
+/**
+ * @file xpEvaluation.h
+ * @brief The records of an evaluation (`xpose evaluate`): one CSV row per trial and approach,
+ *        their summary (JSON, Markdown) and plots.
+ */
 #ifndef xpEvaluation_h
 #define xpEvaluation_h
+
+#include "vtkXPEvaluationModule.h"
 
 #include <array>
 #include <string>
@@ -33,31 +38,31 @@ struct TrialRecord
 };
 
 /** The CSV header line (without newline) and one row. */
-std::string TrialCSVHeader();
-std::string TrialCSVRow(const TrialRecord& record);
+VTKXPEVALUATION_EXPORT std::string TrialCSVHeader();
+VTKXPEVALUATION_EXPORT std::string TrialCSVRow(const TrialRecord& record);
 
 /**
  * Reads the rows of a trials.csv written by TrialCSVRow. A last line cut off by an interruption
  * is ignored; any other malformed line or a different header throws xp::InputError naming the
  * file and the line. A missing file gives no rows.
  */
-std::vector<TrialRecord> ReadTrialCSV(const std::string& path);
+VTKXPEVALUATION_EXPORT std::vector<TrialRecord> ReadTrialCSV(const std::string& path);
 
 /** summary.json: per approach and per 5 mm band of initial error, and the goals of the issue. */
-std::string SummaryJSON(const std::vector<TrialRecord>& records, double successMTRE);
+VTKXPEVALUATION_EXPORT std::string SummaryJSON(const std::vector<TrialRecord>& records, double successMTRE);
 
 /** The summary as Markdown tables (per approach, per 5 mm band), printed at the end of a run. */
-std::string SummaryTable(const std::vector<TrialRecord>& records);
+VTKXPEVALUATION_EXPORT std::string SummaryTable(const std::vector<TrialRecord>& records);
 
 /**
  * The plots of an evaluation, as PNG in `directory`: final_error.png (final mTRE against initial
  * error, the paper's Figure 6), time.png (registration time against initial error) and
  * capture_range.png (success rate per 5 mm band of initial error), approaches A and B together.
  */
-void WriteEvaluationPlots(const std::vector<TrialRecord>& records, double successMTRE, const std::string& directory);
+VTKXPEVALUATION_EXPORT void WriteEvaluationPlots(const std::vector<TrialRecord>& records, double successMTRE, const std::string& directory);
 
 /** The q-quantile (0..1) of values, linear between order statistics; NaN when empty. */
-double Quantile(std::vector<double> values, double q);
+VTKXPEVALUATION_EXPORT double Quantile(std::vector<double> values, double q);
 
 } // namespace xp
 
