@@ -242,7 +242,7 @@ std::vector<xp::RegistrationView> vtkXPStereoRegistrationFilter::PrepareViews(co
     for (size_t earlier = 0; earlier < full.size(); ++earlier)
     {
       if (full[earlier] == item.xray)
-        throw xp::InputError(what, "(imager " + panel.name + ") holds the same image as " +
+        throw xp::InputError(what, "the X-ray of imager " + panel.name + " is the same image as " +
             (earlier < names.size() ? names[earlier] : "X-ray input " + std::to_string(earlier)) + " (imager " +
             panels[earlier].name + "): each imager needs its own X-ray");
     }
