@@ -1,5 +1,6 @@
 #include "vtkXPDRRFilter.h"
 
+#include "xpCatchErrors.h"
 #include "xpStereoGeometry.h"
 
 #include "xpAttenuationVolume.h"
@@ -53,40 +54,26 @@ void vtkXPDRRFilter::SetMisalignment(const xp::Pose& pose)
 
 bool vtkXPDRRFilter::SetViewFromGeometryFile(const char* path, int viewIndex)
 {
-  try
-  {
-    const xp::StereoGeometry geometry = xp::ReadStereoGeometry(path ? path : "");
-    if (viewIndex < 0 || viewIndex >= static_cast<int>(geometry.views.size()))
-      throw xp::InputError(path, "has no view " + std::to_string(viewIndex));
-    this->SetView(geometry.views[viewIndex]);
-    xp::PatientSetup setup = this->Setup;
-    setup.roomIsocenter = geometry.isocenter;
-    this->SetPatientSetup(setup);
-    return true;
-  }
-  catch (const xp::Error& e)
-  {
-    this->LastError = e.what();
-    vtkErrorMacro(<< e.what());
-    return false;
-  }
+  return xp::CatchErrors(this, this->LastError, [&]
+    {
+      const xp::StereoGeometry geometry = xp::ReadStereoGeometry(path ? path : "");
+      if (viewIndex < 0 || viewIndex >= static_cast<int>(geometry.views.size()))
+        throw xp::InputError(path, "has no view " + std::to_string(viewIndex));
+      this->SetView(geometry.views[viewIndex]);
+      xp::PatientSetup setup = this->Setup;
+      setup.roomIsocenter = geometry.isocenter;
+      this->SetPatientSetup(setup);
+    });
 }
 
 bool vtkXPDRRFilter::SetPatientPosition(const char* dicomPatientPosition)
 {
-  try
-  {
-    xp::PatientSetup setup = this->Setup;
-    setup.position = xp::ParsePatientPosition(dicomPatientPosition ? dicomPatientPosition : "", "patient position");
-    this->SetPatientSetup(setup);
-    return true;
-  }
-  catch (const xp::Error& e)
-  {
-    this->LastError = e.what();
-    vtkErrorMacro(<< e.what());
-    return false;
-  }
+  return xp::CatchErrors(this, this->LastError, [&]
+    {
+      xp::PatientSetup setup = this->Setup;
+      setup.position = xp::ParsePatientPosition(dicomPatientPosition ? dicomPatientPosition : "", "patient position");
+      this->SetPatientSetup(setup);
+    });
 }
 
 void vtkXPDRRFilter::SetIsocenterInCT(double x, double y, double z)

@@ -3,6 +3,7 @@
 #include "vtkXPDRRFilter.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
+#include "xpCatchErrors.h"
 #include "xpImageRows.h"
 #include "xpRegistrationRecord.h"
 
@@ -67,39 +68,25 @@ void vtkXPStereoRegistrationFilter::SetSettings(const xp::StereoRegistrationSett
 
 bool vtkXPStereoRegistrationFilter::ReadGeometry(const char* path)
 {
-  try
-  {
-    const xp::StereoGeometry geometry = xp::ReadStereoGeometry(path ? path : "");
-    xp::ValidateStereoGeometry(geometry, path);
-    this->SetGeometry(geometry);
-    xp::PatientSetup setup = this->Setup;
-    setup.roomIsocenter = geometry.isocenter;
-    this->SetPatientSetup(setup);
-    return true;
-  }
-  catch (const xp::Error& e)
-  {
-    this->LastError = e.what();
-    vtkErrorMacro(<< e.what());
-    return false;
-  }
+  return xp::CatchErrors(this, this->LastError, [&]
+    {
+      const xp::StereoGeometry geometry = xp::ReadStereoGeometry(path ? path : "");
+      xp::ValidateStereoGeometry(geometry, path);
+      this->SetGeometry(geometry);
+      xp::PatientSetup setup = this->Setup;
+      setup.roomIsocenter = geometry.isocenter;
+      this->SetPatientSetup(setup);
+    });
 }
 
 bool vtkXPStereoRegistrationFilter::SetPatientPosition(const char* dicomPatientPosition)
 {
-  try
-  {
-    xp::PatientSetup setup = this->Setup;
-    setup.position = xp::ParsePatientPosition(dicomPatientPosition ? dicomPatientPosition : "", "patient position");
-    this->SetPatientSetup(setup);
-    return true;
-  }
-  catch (const xp::Error& e)
-  {
-    this->LastError = e.what();
-    vtkErrorMacro(<< e.what());
-    return false;
-  }
+  return xp::CatchErrors(this, this->LastError, [&]
+    {
+      xp::PatientSetup setup = this->Setup;
+      setup.position = xp::ParsePatientPosition(dicomPatientPosition ? dicomPatientPosition : "", "patient position");
+      this->SetPatientSetup(setup);
+    });
 }
 
 void vtkXPStereoRegistrationFilter::SetIsocenterInCT(double x, double y, double z)
@@ -116,6 +103,22 @@ void vtkXPStereoRegistrationFilter::SetEntropyMask(bool on)
     this->Settings.entropyMask = on;
     this->Modified();
   }
+}
+
+void vtkXPStereoRegistrationFilter::SetResult(xp::StereoRegistrationResult result)
+{
+  this->Result = std::move(result);
+  const std::array<double, 6> misalignment = this->Result.misalignment.Parameters();
+  const std::array<double, 6> correction = this->Result.correction.Parameters();
+  std::copy(misalignment.begin(), misalignment.end(), this->MisalignmentParameters);
+  std::copy(correction.begin(), correction.end(), this->CorrectionParameters);
+}
+
+void vtkXPStereoRegistrationFilter::Refused(const std::string& message)
+{
+  xp::StereoRegistrationResult refused;
+  refused.failures.push_back({ xp::GateCode::InvalidInput, -1, message });
+  this->SetResult(std::move(refused));
 }
 
 std::string vtkXPStereoRegistrationFilter::GetResultJSON() const
@@ -144,8 +147,7 @@ int vtkXPStereoRegistrationFilter::RequestInformation(
   {
     const std::string message = "the geometry has " + std::to_string(views) + " views; connect one X-ray each (got " +
       std::to_string(inputVector[XRayPort]->GetNumberOfInformationObjects()) + ")";
-    this->Result = xp::StereoRegistrationResult{};
-    this->Result.failures.push_back({ xp::GateCode::InvalidInput, -1, "X-ray inputs: " + message });
+    this->Refused("X-ray inputs: " + message);
     vtkErrorMacro(<< message);
     return 0;
   }
@@ -334,17 +336,12 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
       this->SetProgressText(progress.stage.c_str());
       this->UpdateProgress(progress.fraction);
     };
-    this->Result = xp::RegisterStereo(volume, planned, this->Geometry.isocenter, views, this->Settings, observer);
-    const std::array<double, 6> misalignment = this->Result.misalignment.Parameters();
-    const std::array<double, 6> correction = this->Result.correction.Parameters();
-    std::copy(misalignment.begin(), misalignment.end(), this->MisalignmentParameters);
-    std::copy(correction.begin(), correction.end(), this->CorrectionParameters);
+    this->SetResult(xp::RegisterStereo(volume, planned, this->Geometry.isocenter, views, this->Settings, observer));
     this->WriteOutputs(outputVector);
   }
   catch (const xp::Error& e)
   {
-    this->Result = xp::StereoRegistrationResult{};
-    this->Result.failures.push_back({ xp::GateCode::InvalidInput, -1, e.what() });
+    this->Refused(e.what());
     vtkErrorMacro(<< e.what());
     return 0;
   }

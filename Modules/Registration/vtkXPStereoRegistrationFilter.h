@@ -133,6 +133,10 @@ private:
   /** The CT's attenuation, kept while the CT and MuWater stay the same. */
   const xp::AttenuationVolume& Attenuation(vtkImageData* ct);
   void WriteOutputs(vtkInformationVector* outputVector);
+  /** The result and the parameter copies Python reads, always together. */
+  void SetResult(xp::StereoRegistrationResult result);
+  /** A result that refuses the inputs (not ok, one InvalidInput failure). */
+  void Refused(const std::string& message);
 
   xp::StereoGeometry Geometry;
   xp::PatientSetup Setup;

@@ -319,8 +319,9 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   }
   for (const Json::Value& stage : f.Array("convergence.stages"))
   {
-    if (!stage.isObject() || !stage["name"].isString() || !stage["first_evaluation"].isInt())
-      f.Fail("convergence.stages", "must list {name, first_evaluation}");
+    if (!stage.isObject() || !stage["name"].isString() || !stage["first_evaluation"].isInt() ||
+      !stage["seconds"].isNumeric())
+      f.Fail("convergence.stages", "must list {name, first_evaluation, seconds}");
     r.stages.push_back({ stage["name"].asString(), stage["first_evaluation"].asInt(), stage["seconds"].asDouble() });
   }
   r.objectiveTrace = f.Numbers("convergence.objective");

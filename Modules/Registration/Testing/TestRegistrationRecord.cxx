@@ -88,6 +88,9 @@ TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)
   text.replace(text.find("\"low_explained\""), 15, "\"low_mood\"");
   EXPECT_NE(refusal(text).find("unknown code 'low_mood'"), std::string::npos) << refusal(text);
   text = good;
+  text.replace(text.find("\"seconds\" : 1.5"), 15, "\"seconds\" : \"x\"");
+  EXPECT_NE(refusal(text).find("'convergence.stages'"), std::string::npos) << refusal(text);
+  text = good;
   text.replace(text.find("\"failed\""), 8, "\"ok\"");
   EXPECT_NE(refusal(text).find("'failures'"), std::string::npos) << "ok with failures: " << refusal(text);
 }

@@ -262,7 +262,16 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
   registration->GlobalWarningDisplayOn();
   ASSERT_FALSE(registration->GetResult().failures.empty());
   EXPECT_EQ(registration->GetResult().failures.front().code, xp::GateCode::InvalidInput);
+  EXPECT_EQ(registration->GetCorrectionParameters()[0], 0.0) << "a refused run leaves no earlier correction to read";
   registration->SetShrinkFactor(1);
+
+  // The Python face: bad text is refused with a reason, never thrown through the interpreter.
+  registration->GlobalWarningDisplayOff();
+  EXPECT_FALSE(registration->SetPatientPosition("sideways"));
+  EXPECT_FALSE(registration->ReadGeometry("no-such-geometry.json"));
+  registration->GlobalWarningDisplayOn();
+  EXPECT_NE(std::string(registration->GetLastError()).find("no-such-geometry.json"), std::string::npos);
+  EXPECT_TRUE(registration->SetPatientPosition("HFS"));
 
   // A patient set-up whose room isocentre is not the geometry's would place the CT elsewhere
   // than the X-rays see it: refused, and the result says why.
