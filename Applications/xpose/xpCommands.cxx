@@ -90,6 +90,7 @@ void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
   CheckLimit(settings.maxEvaluations, 10, 100000, "--max-evaluations");
   CheckLimit(settings.fineHighPassMM, 0.0, 500.0, "--high-pass-mm");
   CheckLimit(settings.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");
+  CheckLimit(settings.coverageMinExcess, 0.0, 1.0, "--coverage-min-excess");
   CheckLimit(settings.maxTranslation, 0.1, 500.0, "--max-translation");
   CheckLimit(settings.maxRotation, 0.1, 180.0, "--max-rotation");
   CheckLimit(settings.minExplained, 0.0, 1.0, "--min-explained");

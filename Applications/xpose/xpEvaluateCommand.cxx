@@ -87,6 +87,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"max_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
        << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
+       << ",\n  \"coverage_min_excess\": " << o.settings.coverageMinExcess
        << ",\n  \"bins\": " << o.settings.bins << ",\n  \"max_evaluations\": " << o.settings.maxEvaluations
        << ",\n  \"gate\": {\"min_explained\": " << o.settings.minExplained << ", \"max_view_residual_mm\": "
        << o.settings.maxViewResidual << ", \"max_uncovered\": " << o.settings.maxUncovered << ", \"max_search_apart_mm\": "

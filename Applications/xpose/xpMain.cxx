@@ -16,6 +16,9 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     "The refinement removes shading wider than this (sd, mm on the panel; 0: off)")->capture_default_str();
   command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
+  command->add_option("--coverage-min-excess", settings.coverageMinExcess,
+    "Those rays are left out beyond an end face where their upper quarter is more attenuated than the DRR "
+    "predicts by this fraction of the X-ray's range (0: always)")->capture_default_str();
 }
 
 /** The quality gate's limits (Algorithms.md, "quality gate"). */

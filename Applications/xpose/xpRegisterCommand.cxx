@@ -185,7 +185,16 @@ int RunRegister(const RegisterOptions& options)
     result.prealignment.iterations, result.prealignSeconds);
   for (size_t v = 0; v < views.size(); ++v)
     std::printf(" %s %.3f", views[v].view.name.c_str(), result.validFraction[v]);
-  std::printf(" (%.2f s)\nfine 6-DOF: %s, %d evaluations (%.2f s)\n", result.maskSeconds, result.misalignment.ToString().c_str(),
+  std::printf(" (%.2f s)\n", result.maskSeconds);
+  for (size_t v = 0; v < result.endFaces.size() && v < views.size(); ++v)
+  {
+    // Which of the CT's ends the X-ray shows anatomy beyond, and so whose rays were left out.
+    const EndFaceEvidence& faces = result.endFaces[v];
+    const auto named = [&](int f) { return (faces.facesToLeaveOut >> f) & 1 ? "left out" : "kept"; };
+    std::printf("CT end faces, view %s: rays beyond the first slice %s (excess %.3f), beyond the last %s (excess %.3f)\n",
+      views[v].view.name.c_str(), named(0), faces.excess[0], named(1), faces.excess[1]);
+  }
+  std::printf("fine 6-DOF: %s, %d evaluations (%.2f s)\n", result.misalignment.ToString().c_str(),
     result.evaluations, result.fineSeconds);
   const bool ok = result.ok;
   const std::vector<std::string> reasons = result.Reasons();

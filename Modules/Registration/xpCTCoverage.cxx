@@ -66,16 +66,24 @@ CTCoverage::CTCoverage(const AttenuationVolume& volume, double marginMM)
   this->OutlineHigh.array() += 0.5;
 }
 
-std::vector<uint8_t> CTCoverage::Mask(const Eigen::Isometry3d& ctToRoom, const XRayView& view) const
+std::vector<uint8_t> CTCoverage::Mask(const Eigen::Isometry3d& ctToRoom, const XRayView& view, uint8_t ends) const
+{
+  std::vector<uint8_t> mask = this->EndFaces(ctToRoom, view);
+  for (uint8_t& m : mask)
+    m = (m & ends) == 0;
+  return mask;
+}
+
+std::vector<uint8_t> CTCoverage::EndFaces(const Eigen::Isometry3d& ctToRoom, const XRayView& view) const
 {
   const Eigen::Vector3i& d = this->Volume.Dimensions();
   const std::vector<uint8_t>& outline = this->Outline;
   const Eigen::Affine3d roomToIndex = (ctToRoom * this->IndexToCT).inverse();
   const double kLow = -0.5 + this->MarginMM / this->Spacing[2], kHigh = d[2] - 0.5 - this->MarginMM / this->Spacing[2];
   const int columns = view.Columns(), rows = view.Rows();
-  std::vector<uint8_t> mask(static_cast<size_t>(columns) * rows, 1);
+  std::vector<uint8_t> faces(static_cast<size_t>(columns) * rows, 0);
   if (this->OutlineHigh[0] < this->OutlineLow[0])
-    return mask; // no attenuation anywhere: nothing to cross
+    return faces; // no attenuation anywhere: nothing to cross
   const Eigen::Vector3d source = roomToIndex * view.source;
   vtkSMPTools::For(0, rows, [&](int firstRow, int lastRow)
     {
@@ -120,29 +128,108 @@ std::vector<uint8_t> CTCoverage::Mask(const Eigen::Isometry3d& ctToRoom, const X
           }
           if (inside0 <= t0 && inside1 >= t1)
             continue;
-          // One sample per voxel crossed laterally, over the parts beyond.
+          // One sample per voxel crossed laterally over a part beyond one end face; the part
+          // lies wholly beyond that face, so its middle names it.
           const double lateral = std::max(std::abs(direction[0]), std::abs(direction[1]));
           const double step = lateral > 1e-12 ? 1.0 / lateral : std::max(t1 - t0, 1e-3);
-          const auto crossesBodyBeyond = [&](double from, double to)
+          const auto faceCrossedInBody = [&](double from, double to) -> uint8_t
           {
+            const uint8_t face = source[2] + 0.5 * (from + to) * direction[2] < kLow ? FirstSliceFace : LastSliceFace;
             for (double t = from; t <= to; t += step)
             {
               const Eigen::Vector3d p = source + t * direction;
               const int i = std::clamp(static_cast<int>(std::lround(p[0])), 0, d[0] - 1);
               const int j = std::clamp(static_cast<int>(std::lround(p[1])), 0, d[1] - 1);
               if (outline[static_cast<size_t>(j) * d[0] + i] && (p[2] < kLow || p[2] > kHigh))
-                return true;
+                return face;
             }
-            return false;
+            return 0;
           };
-          const bool beyond = inside0 > inside1
-            ? crossesBodyBeyond(t0, t1)
-            : (inside0 > t0 && crossesBodyBeyond(t0, inside0)) || (inside1 < t1 && crossesBodyBeyond(inside1, t1));
-          if (beyond)
-            mask[static_cast<size_t>(row) * columns + column] = 0;
+          uint8_t& face = faces[static_cast<size_t>(row) * columns + column];
+          if (inside0 > inside1)
+            face = faceCrossedInBody(t0, t1);
+          else
+            face = (inside0 > t0 ? faceCrossedInBody(t0, inside0) : 0) | (inside1 < t1 ? faceCrossedInBody(inside1, t1) : 0);
         }
     });
-  return mask;
+  return faces;
+}
+
+EndFaceEvidence MeasureAnatomyBeyondEndFaces(const std::vector<uint16_t>& xray, const std::vector<uint16_t>& drr,
+  const std::vector<uint8_t>& content, const std::vector<uint8_t>& endFaces, double minExcess)
+{
+  const size_t n = xray.size();
+  const auto counts = [&](size_t i) { return content.empty() || content[i]; };
+  EndFaceEvidence evidence;
+  for (size_t i = 0; i < n; ++i)
+    if (counts(i))
+      for (int f = 0; f < 2; ++f)
+        evidence.pixels[f] += (endFaces[i] >> f) & 1;
+  // The X-ray value each DRR level predicts: the median X-ray value of the covered rays in each
+  // of 64 DRR levels of equal count (robust to the pre-alignment's misplaced edges).
+  std::vector<std::pair<uint16_t, uint16_t>> covered; // (DRR, X-ray)
+  for (size_t i = 0; i < n; ++i)
+    if (counts(i) && endFaces[i] == 0)
+      covered.emplace_back(drr[i], xray[i]);
+  constexpr int levels = 64;
+  if (minExcess <= 0.0 || static_cast<long long>(covered.size()) < 8 * levels)
+  {
+    evidence.facesToLeaveOut = BothEndFaces;
+    return evidence;
+  }
+  std::sort(covered.begin(), covered.end());
+  std::vector<uint16_t> upper(levels);
+  std::vector<double> predicted(levels);
+  std::vector<uint16_t> values;
+  for (int l = 0; l < levels; ++l)
+  {
+    const size_t from = covered.size() * l / levels, to = covered.size() * (l + 1) / levels;
+    values.clear();
+    for (size_t i = from; i < to; ++i)
+      values.push_back(covered[i].second);
+    std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+    predicted[l] = values[values.size() / 2];
+    upper[l] = covered[to - 1].first;
+  }
+  // The DRR's values rise as attenuation falls; the X-ray's may rise (transmission) or fall (log).
+  const double polarity = predicted.back() >= predicted.front() ? 1.0 : -1.0;
+  // DRR values beyond the covered ones, up to its empty rays (4095), predict values towards the
+  // X-ray's open field (its least attenuated 0.5 %): when the body fills the covered rows, no
+  // covered ray shows the open field.
+  std::vector<uint16_t> sorted = xray;
+  const size_t rank = static_cast<size_t>((polarity > 0 ? 0.995 : 0.005) * (sorted.size() - 1));
+  std::nth_element(sorted.begin(), sorted.begin() + rank, sorted.end());
+  const double openField = sorted[rank], lastCovered = upper.back();
+  const bool extend = polarity * (openField - predicted.back()) > 0.0 && lastCovered < 4095.0;
+  const auto predict = [&](uint16_t d)
+  {
+    if (extend && d > lastCovered)
+      return predicted.back() + (openField - predicted.back()) * std::min(1.0, (d - lastCovered) / (4095.0 - lastCovered));
+    const int l = static_cast<int>(std::lower_bound(upper.begin(), upper.end(), d) - upper.begin());
+    return predicted[std::min(l, levels - 1)];
+  };
+  const double range = std::max(std::abs(openField - predicted.front()), 1.0);
+  const long long minPixels = std::max<long long>(50, static_cast<long long>(n / 200));
+  std::vector<double> excess;
+  for (int f = 0; f < 2; ++f)
+  {
+    const uint8_t face = static_cast<uint8_t>(1 << f);
+    excess.clear(); // positive: more attenuated than its DRR predicts
+    for (size_t i = 0; i < n; ++i)
+      if (counts(i) && (endFaces[i] & face))
+        excess.push_back(polarity * (predict(drr[i]) - xray[i]) / range);
+    if (static_cast<long long>(excess.size()) < minPixels)
+    {
+      evidence.facesToLeaveOut |= face;
+      continue;
+    }
+    const size_t upperQuartile = excess.size() * 3 / 4;
+    std::nth_element(excess.begin(), excess.begin() + upperQuartile, excess.end());
+    evidence.excess[f] = excess[upperQuartile];
+    if (evidence.excess[f] >= minExcess)
+      evidence.facesToLeaveOut |= face;
+  }
+  return evidence;
 }
 
 } // namespace xp

@@ -35,6 +35,8 @@ const char* GateCodeName(GateCode code)
       return "rotation_too_large";
     case GateCode::AmbiguousPose:
       return "ambiguous_pose";
+    case GateCode::TooFewPixels:
+      return "too_few_pixels";
     case GateCode::LowExplained:
       return "low_explained";
     case GateCode::UncoveredAnatomy:
@@ -65,6 +67,10 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
       throw InputError(std::string("registration settings: ") + name, "must be finite and positive");
     }
   }
+  if (!(settings.minValidPixelsPerCell >= 0.0 && settings.minValidPixelsPerCell <= 1000.0))
+  {
+    throw InputError("registration settings: minValidPixelsPerCell", "must be between 0 and 1000");
+  }
   if (!(settings.minExplained >= 0.0 && settings.minExplained <= 1.0))
   {
     throw InputError("registration settings: minExplained", "must be between 0 and 1");
@@ -94,6 +100,15 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
   {
     const ViewEvidence& view = evidence.views[v];
     const int index = static_cast<int>(v);
+    // MI from a joint histogram with fewer samples than cells measures its own sparseness: a few
+    // hundred pixels make any pose look good (a CT covering a sliver of the X-ray's anatomy).
+    const double cells = static_cast<double>(settings.bins) * settings.bins;
+    if (!(view.validPixels >= settings.minValidPixelsPerCell * cells))
+      failures.push_back({ GateCode::TooFewPixels, index,
+        "view " + view.name +
+          Format(": %.0f valid pixels, fewer than the %.0f that MI over %.0f histogram cells needs: the CT, the ROI "
+                 "and the masks together leave too little of the X-ray to register",
+            static_cast<double>(view.validPixels), settings.minValidPixelsPerCell * cells, cells) });
     if (!(view.explained >= settings.minExplained))
       failures.push_back({ GateCode::LowExplained, index,
         "view " + view.name +

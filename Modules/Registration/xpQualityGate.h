@@ -30,6 +30,7 @@ enum class GateCode
   TranslationTooLarge, ///< beyond maxTranslation
   RotationTooLarge,    ///< beyond maxRotation
   AmbiguousPose,       ///< two searches ended apart, equally good: the images do not fix the pose
+  TooFewPixels,        ///< a view's masks leave too few pixels for its MI to mean anything
   LowExplained,        ///< a view's final DRR explains too little of its X-ray
   UncoveredAnatomy,    ///< a view shows anatomy where the CT has none at the result
   ViewDisagrees        ///< a view's own 2D registration still wants to move
@@ -49,6 +50,7 @@ struct GateFailure
 struct ViewEvidence
 {
   std::string name;
+  long long validPixels = 0;      ///< registered: entropy mask, ROI and CT coverage
   double explained = 0.0;         ///< MI / H(X-ray) over the valid pixels
   double uncovered = 0.0;         ///< fraction of valid pixels with anatomy the CT does not cover
   double residualMM = 0.0;        ///< the view's own 2D registration's shift, mm at the isocentre

@@ -145,7 +145,7 @@ private:
 GateCode CodeNamed(const std::string& name, const Fields& fields)
 {
   for (GateCode code : { GateCode::InvalidInput, GateCode::NotConverged, GateCode::TranslationTooLarge,
-         GateCode::RotationTooLarge, GateCode::AmbiguousPose, GateCode::LowExplained, GateCode::UncoveredAnatomy,
+         GateCode::RotationTooLarge, GateCode::AmbiguousPose, GateCode::TooFewPixels, GateCode::LowExplained, GateCode::UncoveredAnatomy,
          GateCode::ViewDisagrees })
   {
     if (name == GateCodeName(code))
@@ -173,6 +173,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.uncovered = result.uncovered;
   record.viewResidualMM = result.viewResidualMM;
   record.validFraction = result.validFraction;
+  record.endFaces = result.endFaces;
   record.objective = result.objective;
   record.failures = result.failures;
   record.drrCount = result.drrCount;
@@ -202,6 +203,14 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   root["uncovered_fraction"] = PerView(r.viewNames, r.uncovered);
   root["view_residual_mm"] = PerView(r.viewNames, r.viewResidualMM);
   root["mask_valid_fraction"] = PerView(r.viewNames, r.validFraction);
+  for (size_t v = 0; v < r.viewNames.size() && v < r.endFaces.size(); ++v)
+  {
+    Json::Value& faces = root["ct_end_faces"][r.viewNames[v]];
+    faces["excess_first_slice"] = r.endFaces[v].excess[0];
+    faces["excess_last_slice"] = r.endFaces[v].excess[1];
+    faces["left_out_first_slice"] = (r.endFaces[v].facesToLeaveOut & FirstSliceFace) != 0;
+    faces["left_out_last_slice"] = (r.endFaces[v].facesToLeaveOut & LastSliceFace) != 0;
+  }
   root["drr_count"] = static_cast<Json::Int64>(r.drrCount);
   root["evaluations"] = r.evaluations;
   Json::Value& timing = root["timing_s"];
@@ -278,6 +287,17 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames);
   r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames);
   r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames);
+  if (f.Has("ct_end_faces")) // absent when the coverage mask was off
+    for (const std::string& name : r.viewNames)
+    {
+      const std::string at = "ct_end_faces." + name + ".";
+      EndFaceEvidence faces;
+      faces.excess[0] = f.Number(at + "excess_first_slice");
+      faces.excess[1] = f.Number(at + "excess_last_slice");
+      faces.facesToLeaveOut = static_cast<uint8_t>((f.Bool(at + "left_out_first_slice") ? FirstSliceFace : 0) |
+        (f.Bool(at + "left_out_last_slice") ? LastSliceFace : 0));
+      r.endFaces.push_back(faces);
+    }
   r.drrCount = static_cast<long long>(f.Number("drr_count"));
   r.evaluations = static_cast<int>(f.Number("evaluations"));
   r.readSeconds = f.Number("timing_s.read");

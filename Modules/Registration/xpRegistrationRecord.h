@@ -42,6 +42,9 @@ struct RegistrationRecord
   Pose misalignment, correction;
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
+  /** Per view, when the CT coverage mask was on: the anatomy each X-ray shows beyond the CT's
+   *  end faces and the faces whose rays were left out (xpCTCoverage.h). */
+  std::vector<EndFaceEvidence> endFaces;
   double objective = 0.0;
   std::vector<GateFailure> failures;
   long long drrCount = 0;

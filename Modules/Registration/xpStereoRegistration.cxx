@@ -103,10 +103,12 @@ double UncoveredFraction(const std::vector<uint16_t>& xray, const std::vector<ui
   return valid > 0 ? static_cast<double>(uncovered) / valid : 0.0;
 }
 
-/** Leaves out of `item.mask` the pixels whose rays cross the body beyond the CT's end slices. */
-void AndCoverage(RegistrationView& item, const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom)
+/** Leaves out of `item.mask` the pixels whose rays cross the body beyond the CT's end faces `ends`. */
+void AndCoverage(RegistrationView& item, const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom, uint8_t ends)
 {
-  const std::vector<uint8_t> covered = coverage.Mask(ctToRoom, item.view);
+  if (ends == 0)
+    return;
+  const std::vector<uint8_t> covered = coverage.Mask(ctToRoom, item.view, ends);
   for (size_t i = 0; i < covered.size(); ++i)
     item.mask[i] &= covered[i];
 }
@@ -175,7 +177,23 @@ private:
   int Evaluations = 0;
 };
 
-/** Step 2: the entropy mask AND the user ROI of each view (the content), and that AND the CT's
+/** Step 2a: which of the CT's end faces each view sees anatomy beyond, at the pre-alignment, on
+ *  the pre-alignment's images (their DRRs show the CT's ends as sharply as the full ones). */
+std::vector<EndFaceEvidence> MeasureEndFaces(StereoSimilarity& similarity, const Pose& pose, const CTCoverage& coverage,
+  const Eigen::Isometry3d& ctToRoom, double minExcess)
+{
+  similarity.Evaluate(pose);
+  std::vector<EndFaceEvidence> faces;
+  for (size_t v = 0; v < similarity.Views().size(); ++v)
+  {
+    const RegistrationView& item = similarity.Views()[v];
+    faces.push_back(MeasureAnatomyBeyondEndFaces(
+      item.xray, similarity.LastDRR(v), item.mask, coverage.EndFaces(ctToRoom, item.view), minExcess));
+  }
+  return faces;
+}
+
+/** Step 2b: the entropy mask AND the user ROI of each view (the content), and that AND the CT's
  *  coverage at `ctToRoom` (what is registered). Throws xp::InputError when a view keeps nothing. */
 struct ValidityMasks
 {
@@ -207,7 +225,7 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views, con
     masked.mask = std::move(mask);
     masks.content.push_back(masked.mask);
     if (settings.coverageMask)
-      AndCoverage(masked, coverage, ctToRoom);
+      AndCoverage(masked, coverage, ctToRoom, result.endFaces[v].facesToLeaveOut);
     const long long valid = std::count(masked.mask.begin(), masked.mask.end(), 1);
     if (valid == 0)
     {
@@ -293,6 +311,7 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const Eigen::Vector3d
   const RegistrationView& item = fine.Views()[v];
   ViewEvidence evidence;
   evidence.name = item.view.name;
+  evidence.validPixels = std::count(item.mask.begin(), item.mask.end(), 1);
   histogram.Compute(fine.XRayLevels(v).data(), fine.LastDRRLevels(v).data(), static_cast<long long>(item.xray.size()),
     item.mask.data(), item.mask.data());
   evidence.explained = histogram.FixedEntropy() > 0 ? histogram.MutualInformation() / histogram.FixedEntropy() : 0.0;
@@ -346,6 +365,9 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // 2. Entropy masks AND ROIs AND the CT's coverage at the pre-alignment.
   start = Clock::now();
   const CTCoverage coverage(volume, settings.coverageMarginMM);
+  if (settings.coverageMask)
+    result.endFaces = MeasureEndFaces(coarse, result.prealignment.pose, coverage,
+      MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), settings.coverageMinExcess);
   ValidityMasks masks = BuildValidityMasks(
     views, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
   std::vector<RegistrationView>& masked = masks.masked;
@@ -377,7 +399,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     for (size_t v = 0; v < masked.size(); ++v)
     {
       masked[v].mask = masks.content[v];
-      AndCoverage(masked[v], coverage, searchedCTToRoom);
+      AndCoverage(masked[v], coverage, searchedCTToRoom, result.endFaces[v].facesToLeaveOut);
       if (std::count(masked[v].mask.begin(), masked[v].mask.end(), 1) == 0)
         throw InputError("view " + masked[v].view.name, "the CT covers none of the valid pixels: nothing left to register");
     }

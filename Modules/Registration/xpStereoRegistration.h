@@ -8,6 +8,7 @@
 
 #include "vtkXPRegistrationModule.h"
 
+#include "xpCTCoverage.h"
 #include "xpEntropyMask.h"
 #include "xpPreAlignment.h"
 #include "xpQualityGate.h"
@@ -35,13 +36,21 @@ struct StereoRegistrationSettings
    *  MI would trade pose for shading. 0 = off. The coarse stages keep the shading, which helps
    *  them travel. */
   double fineHighPassMM = 20.0;
-  /** Pixels whose rays meet the CT's end faces inside the body see anatomy the CT does not
+  /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
   bool coverageMask = true;
   double coverageMarginMM = 4.0;
+  /** ... but only beyond a face where the X-ray shows that anatomy: its rays' upper quarter more
+   *  attenuated than the DRR predicts by this fraction of the X-ray's range (xpCTCoverage.h,
+   *  MeasureAnatomyBeyondEndFaces); a CT as long as the X-ray's anatomy keeps its end rays.
+   *  0 = always leave them out. */
+  double coverageMinExcess = 0.05;
   int maxEvaluations = 400;      ///< per 6-DOF stage
   double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
   double maxRotation = 10.0;     ///< gate: and degrees
+  /** gate: each view must keep at least this many valid pixels per joint-histogram cell
+   *  (bins x bins): 2 = 2048 pixels with 32 bins, 1 % of a 512x384 view. */
+  double minValidPixelsPerCell = 2.0;
   double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
   double maxViewResidualDegrees = 1.0; ///< gate: and degrees it may still turn in its plane
@@ -88,6 +97,7 @@ struct StereoRegistrationResult
   std::vector<double> uncovered;         ///< per view: valid pixels showing anatomy where the CT has none
   std::vector<double> viewResidualMM;    ///< per view: its own 2D registration's remaining shift (mm at the isocentre)
   std::vector<double> validFraction;     ///< of each mask
+  std::vector<EndFaceEvidence> endFaces; ///< per view: anatomy beyond the CT's ends, faces left out
   std::vector<std::vector<uint8_t>> masks;     ///< the masks used, in the DRR planes
   std::vector<std::vector<float>> entropyMaps; ///< empty without entropy masks
   std::vector<std::vector<uint16_t>> drrs;     ///< masked 12-bit DRRs at the result

@@ -20,6 +20,7 @@ xp::GateEvidence GoodEvidence()
   {
     xp::ViewEvidence view;
     view.name = name;
+    view.validPixels = 20000;
     view.explained = 0.3;
     view.uncovered = 0.01;
     view.residualMM = 0.1;
@@ -75,6 +76,16 @@ TEST(QualityGate, EachLimitFailsItsOwnCodeAndNamesTheView)
   EXPECT_TRUE(Codes(e).empty());
 
   e = GoodEvidence();
+  e.views[0].validPixels = 2047; // 32 x 32 cells, 2 pixels each
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::TooFewPixels });
+  e.views[0].validPixels = 2048;
+  EXPECT_TRUE(Codes(e).empty());
+  settings.bins = 16; // fewer cells, fewer pixels needed
+  e.views[0].validPixels = 600;
+  EXPECT_TRUE(Codes(e, settings).empty());
+  settings = {};
+
+  e = GoodEvidence();
   e.views[0].uncovered = settings.maxUncovered + 0.01;
   EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::UncoveredAnatomy });
   e = GoodEvidence();
@@ -105,7 +116,11 @@ TEST(QualityGate, InvalidLimitsAreRefusedAndCodesHaveStableNames)
   settings = {};
   settings.minExplained = 1.5;
   EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings = {};
+  settings.minValidPixelsPerCell = -1.0;
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
   EXPECT_NO_THROW(xp::ValidateGateLimits({}));
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::LowExplained), "low_explained");
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::AmbiguousPose), "ambiguous_pose");
+  EXPECT_STREQ(xp::GateCodeName(xp::GateCode::TooFewPixels), "too_few_pixels");
 }

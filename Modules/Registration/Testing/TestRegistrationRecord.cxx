@@ -19,6 +19,9 @@ xp::RegistrationRecord FailedRecord()
   result.uncovered = { 0.0, 0.03 };
   result.viewResidualMM = { 0.02, 0.4 };
   result.validFraction = { 0.45, 0.5 };
+  result.endFaces.resize(2);
+  result.endFaces[1].excess[0] = 0.25;
+  result.endFaces[1].facesToLeaveOut = xp::FirstSliceFace;
   result.objective = 0.7;
   result.failures = { { xp::GateCode::LowExplained, 1, "view right: the final DRR explains 0.120" } };
   result.drrCount = 1234;
@@ -49,6 +52,10 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_NEAR(read.correction.pitch, written.correction.pitch, 1e-9); // 10 significant digits
   EXPECT_EQ(read.explained, written.explained);
   EXPECT_EQ(read.viewResidualMM, written.viewResidualMM);
+  ASSERT_EQ(read.endFaces.size(), 2u);
+  EXPECT_EQ(read.endFaces[0].facesToLeaveOut, 0);
+  EXPECT_EQ(read.endFaces[1].facesToLeaveOut, xp::FirstSliceFace) << "the right face, not the other";
+  EXPECT_DOUBLE_EQ(read.endFaces[1].excess[0], 0.25);
   ASSERT_EQ(read.failures.size(), 1u);
   EXPECT_EQ(read.failures[0].code, xp::GateCode::LowExplained);
   EXPECT_EQ(read.failures[0].view, 1);

@@ -249,7 +249,12 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
 
   // A shrink factor of 2 registers the same X-rays on 80x60 panels: outputs on that grid, the
   // same pose within the accuracy asked.
+  // 80x60 panels keep too few pixels for 32 x 32 histogram cells (the gate's too_few_pixels):
+  // 16 bins, a quarter of the cells.
   registration->SetShrinkFactor(2);
+  xp::StereoRegistrationSettings coarser = registration->GetSettings();
+  coarser.bins = 16;
+  registration->SetSettings(coarser);
   registration->Update();
   EXPECT_TRUE(registration->GetResult().ok);
   EXPECT_LT((registration->GetResult().misalignment.translation - truth.translation).norm(), 0.6);
@@ -401,10 +406,16 @@ TEST(StereoRegistrationGate, FailsWhenTheImagesDoNotFixThePose)
 {
   // Nothing in either view changes when the bar slides along its axis: the two searches, the
   // second started 1.5 mm further along that axis, end apart and about equally good.
+  // The rays beyond the CT's end slices (air around the bar) are left out as a CT shorter than
+  // the anatomy would have them: kept, they change nothing along the bar either, but the second
+  // search then happens to pass by the first one's end on the flat floor and stops there, agreeing
+  // by accident (Algorithms.md, "limits of the two-search check").
   const Scene scene(LateralBar());
   const xp::Pose truth = xp::Pose::Parse("2,-1,1,0.5,0.5,-0.5", "truth");
+  xp::StereoRegistrationSettings settings;
+  settings.coverageMinExcess = 0.0;
   const xp::StereoRegistrationResult result =
-    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), Simulate(scene, truth, 5));
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), Simulate(scene, truth, 5), settings);
   EXPECT_FALSE(result.ok) << result.misalignment.ToString();
   EXPECT_GT(result.searchDisagreementMM, 0.5);
   EXPECT_TRUE(FailedWith(result, xp::GateCode::AmbiguousPose)) << Described(result);
@@ -523,6 +534,80 @@ TEST(CTCoverage, AgreesWithDenseSamplingOfEveryRayAtAnObliquePose)
   EXPECT_LE(differ, pixels / 200) << differ << " of " << pixels << " pixels differ from the dense reference";
 }
 
+TEST(CTCoverage, NamesTheEndFaceEachRayCrossesBeyond)
+{
+  // HFS: the CT's last slice is the most superior (Room +Y), and the panel's rows run along -Y:
+  // rays beyond the last slice meet the panel's top rows, those beyond the first its bottom rows.
+  const Scene full;
+  const Scene cropped(CentralSlices(full.ct));
+  const xp::XRayView view = StereoViews(160, 120)[0];
+  const xp::CTCoverage coverage(cropped.volume, 2.0);
+  const std::vector<uint8_t> faces = coverage.EndFaces(cropped.planned, view);
+  double rowSum[4] = { 0, 0, 0, 0 };
+  long long count[4] = { 0, 0, 0, 0 };
+  for (size_t i = 0; i < faces.size(); ++i)
+  {
+    ASSERT_LE(faces[i], xp::BothEndFaces);
+    rowSum[faces[i] & 3] += static_cast<double>(i / 160);
+    count[faces[i] & 3] += 1;
+  }
+  ASSERT_GT(count[xp::FirstSliceFace], 500);
+  ASSERT_GT(count[xp::LastSliceFace], 500);
+  EXPECT_EQ(count[xp::BothEndFaces], 0) << "no ray runs along the whole head";
+  EXPECT_GT(rowSum[xp::FirstSliceFace] / count[xp::FirstSliceFace], 80.0) << "first slice: bottom rows";
+  EXPECT_LT(rowSum[xp::LastSliceFace] / count[xp::LastSliceFace], 40.0) << "last slice: top rows";
+  // A mask of one face leaves the other face's rays in.
+  const std::vector<uint8_t> firstOnly = coverage.Mask(cropped.planned, view, xp::FirstSliceFace);
+  for (size_t i = 0; i < faces.size(); ++i)
+    EXPECT_EQ(firstOnly[i], (faces[i] & xp::FirstSliceFace) == 0);
+}
+
+TEST(CTCoverage, LeavesOutOnlyTheEndFacesBeyondWhichTheXRayShowsAnatomy)
+{
+  const Scene full;
+  const Scene cropped(CentralSlices(full.ct));
+  const xp::Pose truth = xp::Pose::Parse("2,-1,1,1,-0.5,1", "truth");
+  const Eigen::Isometry3d ctToRoom = xp::MisalignedCTToRoom(cropped.planned, truth, Eigen::Vector3d::Zero());
+  const xp::CTCoverage coverage(cropped.volume, 2.0);
+  const std::vector<xp::RegistrationView> drrs = Simulate(cropped, truth, 11);      // the short CT's DRRs
+  const std::vector<xp::RegistrationView> longer = Simulate(full, truth, 12);      // X-rays of the whole head
+  const std::vector<xp::RegistrationView> asLong = Simulate(cropped, truth, 13);   // X-rays no longer than the CT
+  const auto inverted = [](std::vector<uint16_t> image)
+  {
+    for (uint16_t& v : image)
+      v = static_cast<uint16_t>(4095 - v); // log-converted polarity: attenuation bright
+    return image;
+  };
+  for (size_t v = 0; v < drrs.size(); ++v)
+  {
+    const std::vector<uint8_t> faces = coverage.EndFaces(ctToRoom, drrs[v].view);
+    for (const bool invert : { false, true })
+    {
+      const auto xray = [&](const std::vector<uint16_t>& image) { return invert ? inverted(image) : image; };
+      const xp::EndFaceEvidence beyond = xp::MeasureAnatomyBeyondEndFaces(xray(longer[v].xray), drrs[v].xray, {}, faces, 0.05);
+      EXPECT_EQ(beyond.facesToLeaveOut, xp::BothEndFaces) << "view " << v << (invert ? " inverted" : "");
+      EXPECT_GT(std::min(beyond.excess[0], beyond.excess[1]), 0.2);
+      const xp::EndFaceEvidence same = xp::MeasureAnatomyBeyondEndFaces(xray(asLong[v].xray), drrs[v].xray, {}, faces, 0.05);
+      EXPECT_EQ(same.facesToLeaveOut, 0) << "view " << v << (invert ? " inverted" : "") << ": excess " << same.excess[0]
+                                         << ", " << same.excess[1];
+      // 0: always left out.
+      EXPECT_EQ(xp::MeasureAnatomyBeyondEndFaces(xray(asLong[v].xray), drrs[v].xray, {}, faces, 0.0).facesToLeaveOut,
+        xp::BothEndFaces);
+    }
+    // An X-ray-only object over a tenth of a face's rays (a frame, a rail) is not anatomy beyond it.
+    std::vector<uint16_t> withObject = asLong[v].xray;
+    long long marked = 0;
+    const long long tenth = std::count_if(faces.begin(), faces.end(), [](uint8_t f) { return f & xp::FirstSliceFace; }) / 10;
+    for (size_t i = 0; i < faces.size() && marked < tenth; ++i)
+      if (faces[i] & xp::FirstSliceFace)
+      {
+        withObject[i] = static_cast<uint16_t>(withObject[i] / 4);
+        ++marked;
+      }
+    EXPECT_EQ(xp::MeasureAnatomyBeyondEndFaces(withObject, drrs[v].xray, {}, faces, 0.05).facesToLeaveOut, 0);
+  }
+}
+
 TEST(StereoRegistrationGate, ACTShorterThanTheFieldRegistersOnWhatItCovers)
 {
   // X-rays of the whole head, a planning CT of its central 40 % of slices (the evaluation's
@@ -535,6 +620,9 @@ TEST(StereoRegistrationGate, ACTShorterThanTheFieldRegistersOnWhatItCovers)
   EXPECT_TRUE(result.ok) << Described(result);
   EXPECT_LT((result.misalignment.translation - truth.translation).cwiseAbs().maxCoeff(), 1.2) << result.misalignment.ToString();
   EXPECT_LT(result.validFraction[0], 0.9);
+  ASSERT_EQ(result.endFaces.size(), 2u);
+  for (const xp::EndFaceEvidence& faces : result.endFaces)
+    EXPECT_EQ(faces.facesToLeaveOut, xp::BothEndFaces);
 }
 
 TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
