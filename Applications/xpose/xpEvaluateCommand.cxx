@@ -336,6 +336,21 @@ int RunEvaluate(const EvaluateOptions& options)
       r.uncovered = *std::max_element(result.uncovered.begin(), result.uncovered.end());
       r.searchApartMM = result.searchDisagreementMM;
       r.searchApartDegrees = result.searchDisagreementDegrees;
+      r.validPixels = -1;
+      for (const std::vector<uint8_t>& mask : result.masks)
+      {
+        const long long valid = std::count(mask.begin(), mask.end(), 1);
+        r.validPixels = r.validPixels < 0 ? valid : std::min(r.validPixels, valid);
+      }
+      r.endFaceExcessMin = result.endFaces.empty() ? 0.0 : 1e9;
+      r.endFaceExcessMax = result.endFaces.empty() ? 0.0 : -1e9;
+      for (const EndFaceEvidence& faces : result.endFaces)
+        for (int f = 0; f < 2; ++f)
+        {
+          r.endFaceExcessMin = std::min(r.endFaceExcessMin, faces.excess[f]);
+          r.endFaceExcessMax = std::max(r.endFaceExcessMax, faces.excess[f]);
+          r.endFacesLeftOut += (faces.facesToLeaveOut >> f) & 1;
+        }
       for (const std::string& reason : result.Reasons())
         r.reasons += (r.reasons.empty() ? "" : "; ") + reason;
       csv << TrialCSVRow(r) << std::endl; // flushed: an interruption keeps every finished registration

@@ -34,6 +34,11 @@ struct TrialRecord
   /** The gate's measures (worst view), to calibrate it: MI / H(X-ray), 2D residual (mm),
    *  uncovered fraction, and how far apart the two searches ended (mm, degrees). */
   double explained = 0.0, residualMM = 0.0, uncovered = 0.0, searchApartMM = 0.0, searchApartDegrees = 0.0;
+  /** The fewest valid pixels of a view; the least and most excess attenuation beyond a CT end
+   *  face over all faces and views, and how many faces were left out (xpCTCoverage.h). */
+  long long validPixels = 0;
+  double endFaceExcessMin = 0.0, endFaceExcessMax = 0.0;
+  int endFacesLeftOut = 0;
   std::string reasons;               ///< the gate's reasons, ';'-separated
 };
 

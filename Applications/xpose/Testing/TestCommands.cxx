@@ -541,6 +541,10 @@ TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
   std::getline(csv, header);
   EXPECT_EQ(header.rfind("trial,approach,scenario,initial_tx", 0), 0u);
   const int columns = static_cast<int>(std::count(header.begin(), header.end(), ',')) + 1;
+  const auto columnOf = [&](const std::string& name)
+  { return static_cast<int>(std::count(header.begin(), header.begin() + header.find("," + name + ","), ',')) + 1; };
+  ASSERT_NE(header.find(",valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,"), std::string::npos);
+  const int validColumn = columnOf("valid_pixels"), leftOutColumn = columnOf("end_faces_left_out");
   int rows = 0;
   while (std::getline(csv, line))
   {
@@ -554,6 +558,9 @@ TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
     ASSERT_EQ(static_cast<int>(f.size()), columns) << line;
     EXPECT_TRUE(f[1] == "A" || f[1] == "B");
     EXPECT_EQ(f[2], "objects");
+    EXPECT_GT(std::stoll(f[validColumn]), 2048) << "the phantom's views keep thousands of pixels";
+    const int leftOut = std::stoi(f[leftOutColumn]);
+    EXPECT_TRUE(leftOut >= 0 && leftOut <= 4) << "two faces of two views";
     const double initial = std::stod(f[9]), mtre = std::stod(f[18]);
     EXPECT_GE(initial, 1.0);
     EXPECT_LE(initial, 8.0);
