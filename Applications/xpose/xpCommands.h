@@ -142,7 +142,19 @@ struct EvaluateOptions
  *  line on stderr: "xpose <command>: error: <message>". */
 int GuardedRun(const std::string& command, const std::function<int()>& body);
 
+/** `xpose geometry`: a geometry file from the imagers' 3x4 projection matrices (xpProjectionMatrix.h). */
+struct GeometryOptions
+{
+  std::vector<std::string> projectionMatrices; ///< one text file per imager
+  std::vector<std::string> names;              ///< the imagers' names; empty = A, B, ...
+  std::string pixelSpacing;                    ///< "MM" or "COLUMN_MM,ROW_MM"
+  std::string size;                            ///< "COLSxROWS"
+  std::string isocenter = "0,0,0";             ///< Room mm
+  std::string output;                          ///< the geometry JSON to write
+};
+
 int RunPhantom(const PhantomOptions& options);
+int RunGeometry(const GeometryOptions& options);
 int RunDRR(const DRROptions& options);
 int RunBenchDRR(const BenchOptions& options);
 int RunMask(const MaskOptions& options);

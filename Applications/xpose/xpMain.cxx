@@ -49,6 +49,18 @@ int main(int argc, char** argv)
   phantomCommand->add_option("--out", phantom.outputDirectory, "Output folder (new or empty)")->required();
   phantomCommand->add_option("--spacing", phantom.spacing, "Voxel size in mm")->capture_default_str();
 
+  xp::GeometryOptions geometry;
+  CLI::App* geometryCommand = app.add_subcommand("geometry", "Write a geometry file from the imagers' 3x4 projection matrices");
+  geometryCommand->add_option("--projection-matrix", geometry.projectionMatrices,
+    "One text file per imager: 3 rows of 4 numbers, Room mm to (col, row) pixel-centre indices, row 0 at the top")
+    ->required();
+  geometryCommand->add_option("--names", geometry.names, "The imagers' names (default A, B, ...)")->delimiter(',');
+  geometryCommand->add_option("--pixel-spacing", geometry.pixelSpacing, "Detector pixel spacing, MM or COLUMN_MM,ROW_MM")
+    ->required();
+  geometryCommand->add_option("--size", geometry.size, "Detector COLSxROWS")->required();
+  geometryCommand->add_option("--isocenter", geometry.isocenter, "Room isocentre x,y,z (mm)")->capture_default_str();
+  geometryCommand->add_option("--out", geometry.output, "The geometry JSON to write")->required();
+
   xp::DRROptions drr;
   CLI::App* drrCommand = app.add_subcommand("drr", "Render a DRR per imager of the geometry");
   drrCommand->add_option("--ct", drr.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
@@ -190,6 +202,8 @@ int main(int argc, char** argv)
     return xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); });
   if (maskCommand->parsed())
     return xp::GuardedRun("mask", [&] { return xp::RunMask(mask); });
+  if (geometryCommand->parsed())
+    return xp::GuardedRun("geometry", [&] { return xp::RunGeometry(geometry); });
   if (phantomCommand->parsed())
     return xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); });
   if (drrCommand->parsed())

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -284,10 +285,14 @@ std::string FormatStereoGeometry(const StereoGeometry& geometry)
 
 void WriteStereoGeometry(const StereoGeometry& geometry, const std::string& path)
 {
-  std::ofstream file(path);
+  // Written beside and renamed into place: a failed write never leaves half a geometry file.
+  const std::string partial = path + ".partial";
+  std::ofstream file(partial);
   file << FormatStereoGeometry(geometry);
-  if (!file)
+  file.close();
+  if (!file || std::rename(partial.c_str(), path.c_str()) != 0)
   {
+    std::remove(partial.c_str());
     throw Error(path, "cannot write the geometry file");
   }
 }

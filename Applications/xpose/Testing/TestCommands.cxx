@@ -1,6 +1,8 @@
 // The subcommands end to end: phantom -> DICOM -> DRR files, exit codes, nothing half-written.
 #include "xpCommands.h"
+#include "xpProjectionMatrix.h"
 #include "xpRegistrationRecord.h"
+#include "xpStereoGeometry.h"
 
 #include <dirent.h>
 #include <cmath>
@@ -685,4 +687,48 @@ TEST(Commands, WorkBeyondReasonAndClampedOptionsAreRefused)
   mask.binWidth = 0;
   EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(mask); }), xp::ExitBadInput);
   EXPECT_FALSE(Exists("cmd-mask-window"));
+}
+
+TEST(Commands, GeometryFromProjectionMatricesRoundTripsTheReferenceGeometry)
+{
+  // The reference geometry's imagers as projection matrices (as a calibration would give them,
+  // at an arbitrary scale), back through `xpose geometry`: sources and panel centres within
+  // 0.1 mm, directions within 0.01 degree.
+  const xp::StereoGeometry reference = xp::ReadStereoGeometry(Geometry);
+  xp::GeometryOptions options;
+  for (const xp::XRayView& view : reference.views)
+  {
+    const std::string file = "cmd-geometry-P_" + view.name + ".txt";
+    std::ofstream out(file);
+    out.precision(17);
+    out << "# " << view.name << "\n" << 3.5 * xp::ProjectionMatrixOf(view) << "\n";
+    options.projectionMatrices.push_back(file);
+    options.names.push_back(view.name);
+  }
+  options.pixelSpacing = std::to_string(reference.views[0].pixelSpacing[0]);
+  options.size = std::to_string(reference.views[0].Columns()) + "x" + std::to_string(reference.views[0].Rows());
+  options.output = "cmd-geometry.json";
+  std::remove(options.output.c_str());
+  ASSERT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(options); }), xp::ExitOk);
+  const xp::StereoGeometry read = xp::ReadStereoGeometry(options.output);
+  ASSERT_EQ(read.views.size(), reference.views.size());
+  for (size_t v = 0; v < read.views.size(); ++v)
+  {
+    const xp::XRayView &a = read.views[v], &b = reference.views[v];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_LT((a.source - b.source).norm(), 0.1);
+    EXPECT_LT((a.detectorCenter - b.detectorCenter).norm(), 0.1);
+    EXPECT_LT(std::acos(std::min(1.0, a.rowDirection.dot(b.rowDirection))) * 180.0 / M_PI, 0.01);
+    EXPECT_LT(std::acos(std::min(1.0, a.columnDirection.dot(b.columnDirection))) * 180.0 / M_PI, 0.01);
+  }
+  // Bad input: a name short, a spacing whose ratio P contradicts; exit 2 and no file written.
+  std::remove(options.output.c_str());
+  xp::GeometryOptions bad = options;
+  bad.names.pop_back();
+  EXPECT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(bad); }), xp::ExitBadInput);
+  bad = options;
+  bad.pixelSpacing += ",0.5";
+  EXPECT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(bad); }), xp::ExitBadInput);
+  struct stat info;
+  EXPECT_NE(stat(options.output.c_str(), &info), 0) << "nothing written";
 }

@@ -1,0 +1,66 @@
+// xpose geometry: the geometry file (GEOMETRY.md) from what calibrated systems provide.
+#include "xpCommands.h"
+
+#include "xpError.h"
+#include "xpProjectionMatrix.h"
+#include "xpStereoGeometry.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace xp
+{
+
+namespace
+{
+
+/** "0.4" or "0.4,0.3" (between columns, between rows), mm. */
+Eigen::Vector2d ParseSpacing(const std::string& text)
+{
+  Eigen::Vector2d spacing;
+  char comma = 0, extra = 0;
+  const int read = std::sscanf(text.c_str(), "%lf%c%lf%c", &spacing[0], &comma, &spacing[1], &extra);
+  if (read == 1)
+    spacing[1] = spacing[0];
+  if (!((read == 1 || (read == 3 && comma == ',')) && spacing.allFinite() && spacing.minCoeff() > 0.0 && spacing.maxCoeff() <= 10.0))
+    throw InputError("--pixel-spacing", "expected MM or COLUMN_MM,ROW_MM between 0 and 10 mm, got '" + text + "'");
+  return spacing;
+}
+
+} // namespace
+
+int RunGeometry(const GeometryOptions& options)
+{
+  const std::vector<std::string>& files = options.projectionMatrices;
+  if (files.empty())
+    throw InputError("--projection-matrix", "give one projection matrix file per imager");
+  if (!options.names.empty() && options.names.size() != files.size())
+    throw InputError("--names", "give one name per projection matrix (" + std::to_string(files.size()) + "), got " +
+        std::to_string(options.names.size()));
+  const Eigen::Vector2d spacing = ParseSpacing(options.pixelSpacing);
+  const auto [columns, rows] = ParseSize(options.size, "--size");
+  StereoGeometry geometry;
+  geometry.name = "from projection matrices";
+  geometry.isocenter = ParsePoint(options.isocenter, "--isocenter");
+  for (size_t v = 0; v < files.size(); ++v)
+  {
+    const std::string name = options.names.empty() ? std::string(1, static_cast<char>('A' + v)) : options.names[v];
+    geometry.views.push_back(ViewFromProjectionMatrix(
+      ReadProjectionMatrix(files[v]), spacing, { columns, rows }, geometry.isocenter, name, files[v]));
+  }
+  // The views must make a geometry xpose can use (central rays on the panels, names distinct).
+  ValidateGeometry(geometry, options.output);
+  WriteStereoGeometry(geometry, options.output);
+  for (const XRayView& view : geometry.views)
+  {
+    const Eigen::Vector2d iso = view.Project(geometry.isocenter);
+    std::printf("imager %s: source (%.2f, %.2f, %.2f) mm, source to panel %.2f mm, source to isocentre %.2f mm, "
+                "isocentre at pixel (%.2f, %.2f)\n",
+      view.name.c_str(), view.source[0], view.source[1], view.source[2], view.SourceToPanelDistance(),
+      (view.source - geometry.isocenter).norm(), iso[0], iso[1]);
+  }
+  std::printf("wrote %s\n", options.output.c_str());
+  return ExitOk;
+}
+
+} // namespace xp

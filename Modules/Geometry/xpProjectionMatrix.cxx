@@ -1,0 +1,121 @@
+#include "xpProjectionMatrix.h"
+
+#include "xpError.h"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace xp
+{
+
+ProjectionMatrix ProjectionMatrixOf(const XRayView& view)
+{
+  // K [R | -R C] with the principal point where the source's perpendicular meets the panel.
+  const Eigen::Vector3d towardsPanel = -view.NormalTowardsSource();
+  const double distance = view.SourceToPanelDistance();
+  Eigen::Matrix3d rotation;
+  rotation.row(0) = view.rowDirection.transpose();
+  rotation.row(1) = view.columnDirection.transpose();
+  rotation.row(2) = towardsPanel.transpose();
+  const Eigen::Vector3d foot = view.source + distance * towardsPanel;
+  const Eigen::Vector3d offset = foot - view.detectorCenter;
+  Eigen::Matrix3d intrinsics = Eigen::Matrix3d::Identity();
+  intrinsics(0, 0) = distance / view.pixelSpacing[0];
+  intrinsics(1, 1) = distance / view.pixelSpacing[1];
+  intrinsics(0, 2) = offset.dot(view.rowDirection) / view.pixelSpacing[0] + 0.5 * (view.size[0] - 1);
+  intrinsics(1, 2) = offset.dot(view.columnDirection) / view.pixelSpacing[1] + 0.5 * (view.size[1] - 1);
+  ProjectionMatrix projection;
+  projection.leftCols<3>() = intrinsics * rotation;
+  projection.col(3) = -intrinsics * rotation * view.source;
+  return projection;
+}
+
+XRayView ViewFromProjectionMatrix(const ProjectionMatrix& projection, const Eigen::Vector2d& pixelSpacing,
+  const Eigen::Vector2i& size, const Eigen::Vector3d& pointInFront, const std::string& name, const std::string& origin)
+{
+  if (!projection.allFinite())
+    throw InputError(origin, "the projection matrix holds a value that is not a finite number");
+  if (!(pixelSpacing.minCoeff() > 0.0 && size.minCoeff() > 0))
+    throw InputError(origin, "pixel spacing and size must be positive");
+  Eigen::Matrix3d m = projection.leftCols<3>();
+  Eigen::Vector3d p4 = projection.col(3);
+  if (!(std::abs(m.determinant()) > 1e-12 * std::pow(m.norm(), 3)))
+    throw InputError(origin, "the projection matrix's left 3x3 block is singular: not a perspective projection");
+  // Scale: the third row a unit vector, and the point in front of the source at positive depth
+  // (P is defined up to a scale of either sign).
+  const double depth = m.row(2).dot(pointInFront) + p4[2];
+  if (!(std::abs(depth) > 0.0))
+    throw InputError(origin, "the isocentre lies in the source's plane: it has no projection");
+  const double scale = (depth > 0.0 ? 1.0 : -1.0) / m.row(2).norm();
+  m *= scale;
+  p4 *= scale;
+  // RQ decomposition M = K R by Gram-Schmidt from the last row up: R's third row is M's, the
+  // second is M's second less its part along the third, and so on.
+  const Eigen::Vector3d r3 = m.row(2).transpose();
+  const double cy = m.row(1).dot(r3.transpose());
+  Eigen::Vector3d r2 = m.row(1).transpose() - cy * r3;
+  const double fy = r2.norm();
+  r2 /= fy;
+  const double cx = m.row(0).dot(r3.transpose()), skew = m.row(0).dot(r2.transpose());
+  Eigen::Vector3d r1 = m.row(0).transpose() - cx * r3 - skew * r2;
+  const double fx = r1.norm();
+  r1 /= fx;
+  if (!(std::abs(std::atan2(skew, fx)) * 180.0 / M_PI <= 0.01))
+    throw InputError(origin, "the projection matrix is skewed: its panel's rows and columns are not at right angles");
+  const double fromX = fx * pixelSpacing[0], fromY = fy * pixelSpacing[1];
+  if (!(std::abs(fromX - fromY) <= 1e-3 * std::max(fromX, fromY)))
+    throw InputError(origin, "the focal lengths' ratio (" + std::to_string(fx / fy) +
+        ") disagrees with the pixel spacing's (" + std::to_string(pixelSpacing[1] / pixelSpacing[0]) + ")");
+  const double distance = 0.5 * (fromX + fromY);
+  XRayView view;
+  view.name = name;
+  view.source = -m.inverse() * p4;
+  view.rowDirection = r1;
+  view.columnDirection = r2;
+  view.pixelSpacing = pixelSpacing;
+  view.size = size;
+  // The principal point (cx, cy) is where the perpendicular from the source meets the panel.
+  const Eigen::Vector3d foot = view.source + distance * r3;
+  view.detectorCenter = foot + (0.5 * (size[0] - 1) - cx) * pixelSpacing[0] * r1 + (0.5 * (size[1] - 1) - cy) * pixelSpacing[1] * r2;
+  return view;
+}
+
+ProjectionMatrix ReadProjectionMatrix(const std::string& path)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw InputError(path, "cannot open the projection matrix file");
+  std::vector<double> values;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number)
+  {
+    std::istringstream words(line.substr(0, line.find('#')));
+    for (std::string word; words >> word;)
+    {
+      size_t used = 0;
+      double value = 0.0;
+      try
+      {
+        value = std::stod(word, &used);
+      }
+      catch (const std::exception&)
+      {
+      }
+      if (used != word.size() || !std::isfinite(value))
+        throw InputError(path, "line " + std::to_string(number) + ": '" + word + "' is not a finite number");
+      values.push_back(value);
+    }
+  }
+  if (values.size() != 12)
+    throw InputError(path, "holds " + std::to_string(values.size()) + " numbers; a projection matrix has 12 (3 rows of 4)");
+  ProjectionMatrix projection;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c)
+      projection(r, c) = values[static_cast<size_t>(r) * 4 + c];
+  return projection;
+}
+
+} // namespace xp
