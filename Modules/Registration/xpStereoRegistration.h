@@ -44,7 +44,7 @@ struct StereoRegistrationSettings
    *  attenuated than the DRR predicts by this fraction of the X-ray's range (xpCTCoverage.h,
    *  MeasureAnatomyBeyondEndFaces); a CT as long as the X-ray's anatomy keeps its end rays.
    *  0 = always leave them out. */
-  double coverageMinExcess = 0.05;
+  double coverageMinExcess = 0.015;
   int maxEvaluations = 400;      ///< per 6-DOF stage
   double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
   double maxRotation = 10.0;     ///< gate: and degrees

@@ -569,6 +569,7 @@ TEST(CTCoverage, LeavesOutOnlyTheEndFacesBeyondWhichTheXRayShowsAnatomy)
   const xp::Pose truth = xp::Pose::Parse("2,-1,1,1,-0.5,1", "truth");
   const Eigen::Isometry3d ctToRoom = xp::MisalignedCTToRoom(cropped.planned, truth, Eigen::Vector3d::Zero());
   const xp::CTCoverage coverage(cropped.volume, 2.0);
+  const double minExcess = xp::StereoRegistrationSettings{}.coverageMinExcess;
   const std::vector<xp::RegistrationView> drrs = Simulate(cropped, truth, 11);      // the short CT's DRRs
   const std::vector<xp::RegistrationView> longer = Simulate(full, truth, 12);      // X-rays of the whole head
   const std::vector<xp::RegistrationView> asLong = Simulate(cropped, truth, 13);   // X-rays no longer than the CT
@@ -584,10 +585,10 @@ TEST(CTCoverage, LeavesOutOnlyTheEndFacesBeyondWhichTheXRayShowsAnatomy)
     for (const bool invert : { false, true })
     {
       const auto xray = [&](const std::vector<uint16_t>& image) { return invert ? inverted(image) : image; };
-      const xp::EndFaceEvidence beyond = xp::MeasureAnatomyBeyondEndFaces(xray(longer[v].xray), drrs[v].xray, {}, faces, 0.05);
+      const xp::EndFaceEvidence beyond = xp::MeasureAnatomyBeyondEndFaces(xray(longer[v].xray), drrs[v].xray, {}, faces, minExcess);
       EXPECT_EQ(beyond.facesToLeaveOut, xp::BothEndFaces) << "view " << v << (invert ? " inverted" : "");
       EXPECT_GT(std::min(beyond.excess[0], beyond.excess[1]), 0.2);
-      const xp::EndFaceEvidence same = xp::MeasureAnatomyBeyondEndFaces(xray(asLong[v].xray), drrs[v].xray, {}, faces, 0.05);
+      const xp::EndFaceEvidence same = xp::MeasureAnatomyBeyondEndFaces(xray(asLong[v].xray), drrs[v].xray, {}, faces, minExcess);
       EXPECT_EQ(same.facesToLeaveOut, 0) << "view " << v << (invert ? " inverted" : "") << ": excess " << same.excess[0]
                                          << ", " << same.excess[1];
       // 0: always left out.
@@ -604,7 +605,7 @@ TEST(CTCoverage, LeavesOutOnlyTheEndFacesBeyondWhichTheXRayShowsAnatomy)
         withObject[i] = static_cast<uint16_t>(withObject[i] / 4);
         ++marked;
       }
-    EXPECT_EQ(xp::MeasureAnatomyBeyondEndFaces(withObject, drrs[v].xray, {}, faces, 0.05).facesToLeaveOut, 0);
+    EXPECT_EQ(xp::MeasureAnatomyBeyondEndFaces(withObject, drrs[v].xray, {}, faces, minExcess).facesToLeaveOut, 0);
   }
 }
 
