@@ -142,10 +142,13 @@ struct EvaluateOptions
  *  line on stderr: "xpose <command>: error: <message>". */
 int GuardedRun(const std::string& command, const std::function<int()>& body);
 
-/** `xpose geometry`: a geometry file from the imagers' 3x4 projection matrices (xpProjectionMatrix.h). */
+/** `xpose geometry`: a geometry file from the imagers' 3x4 projection matrices or pinhole
+ *  calibrations (xpProjectionMatrix.h). */
 struct GeometryOptions
 {
   std::vector<std::string> projectionMatrices; ///< one text file per imager
+  std::vector<std::string> intrinsics;         ///< or K files, one per imager
+  std::vector<std::string> extrinsics;         ///< with [R | t] files, one per imager
   std::vector<std::string> names;              ///< the imagers' names; empty = A, B, ...
   std::string pixelSpacing;                    ///< "MM" or "COLUMN_MM,ROW_MM"
   std::string size;                            ///< "COLSxROWS"

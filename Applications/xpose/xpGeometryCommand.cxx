@@ -31,22 +31,27 @@ Eigen::Vector2d ParseSpacing(const std::string& text)
 
 int RunGeometry(const GeometryOptions& options)
 {
-  const std::vector<std::string>& files = options.projectionMatrices;
-  if (files.empty())
-    throw InputError("--projection-matrix", "give one projection matrix file per imager");
+  const bool pinhole = !options.intrinsics.empty() || !options.extrinsics.empty();
+  if (pinhole == !options.projectionMatrices.empty())
+    throw InputError("--projection-matrix", "give either projection matrices or --intrinsics with --extrinsics, one per imager");
+  if (pinhole && options.intrinsics.size() != options.extrinsics.size())
+    throw InputError("--extrinsics", "give one [R | t] file per --intrinsics file (" + std::to_string(options.intrinsics.size()) +
+        "), got " + std::to_string(options.extrinsics.size()));
+  const std::vector<std::string>& files = pinhole ? options.extrinsics : options.projectionMatrices;
   if (!options.names.empty() && options.names.size() != files.size())
     throw InputError("--names", "give one name per projection matrix (" + std::to_string(files.size()) + "), got " +
         std::to_string(options.names.size()));
   const Eigen::Vector2d spacing = ParseSpacing(options.pixelSpacing);
   const auto [columns, rows] = ParseSize(options.size, "--size");
   StereoGeometry geometry;
-  geometry.name = "from projection matrices";
+  geometry.name = pinhole ? "from pinhole calibrations" : "from projection matrices";
   geometry.isocenter = ParsePoint(options.isocenter, "--isocenter");
   for (size_t v = 0; v < files.size(); ++v)
   {
     const std::string name = options.names.empty() ? std::string(1, static_cast<char>('A' + v)) : options.names[v];
-    geometry.views.push_back(ViewFromProjectionMatrix(
-      ReadProjectionMatrix(files[v]), spacing, { columns, rows }, geometry.isocenter, name, files[v]));
+    const ProjectionMatrix projection =
+      pinhole ? ReadPinholeCalibration(options.intrinsics[v], files[v]) : ReadProjectionMatrix(files[v]);
+    geometry.views.push_back(ViewFromProjectionMatrix(projection, spacing, { columns, rows }, geometry.isocenter, name, files[v]));
   }
   // The views must make a geometry xpose can use (central rays on the panels, names distinct).
   ValidateGeometry(geometry, options.output);

@@ -50,10 +50,11 @@ int main(int argc, char** argv)
   phantomCommand->add_option("--spacing", phantom.spacing, "Voxel size in mm")->capture_default_str();
 
   xp::GeometryOptions geometry;
-  CLI::App* geometryCommand = app.add_subcommand("geometry", "Write a geometry file from the imagers' 3x4 projection matrices");
+  CLI::App* geometryCommand = app.add_subcommand("geometry", "Write a geometry file from the imagers' 3x4 projection matrices or pinhole calibrations");
   geometryCommand->add_option("--projection-matrix", geometry.projectionMatrices,
-    "One text file per imager: 3 rows of 4 numbers, Room mm to (col, row) pixel-centre indices, row 0 at the top")
-    ->required();
+    "One text file per imager: 3 rows of 4 numbers, Room mm to (col, row) pixel-centre indices, row 0 at the top");
+  geometryCommand->add_option("--intrinsics", geometry.intrinsics, "Or pinhole calibrations: K per imager (3 rows of 3, pixels)");
+  geometryCommand->add_option("--extrinsics", geometry.extrinsics, "with [R | t] per imager (3 rows of 4, Room mm to camera)");
   geometryCommand->add_option("--names", geometry.names, "The imagers' names (default A, B, ...)")->delimiter(',');
   geometryCommand->add_option("--pixel-spacing", geometry.pixelSpacing, "Detector pixel spacing, MM or COLUMN_MM,ROW_MM")
     ->required();

@@ -83,11 +83,15 @@ XRayView ViewFromProjectionMatrix(const ProjectionMatrix& projection, const Eige
   return view;
 }
 
-ProjectionMatrix ReadProjectionMatrix(const std::string& path)
+namespace
+{
+
+/** `count` numbers from a text file, '#' starting a comment. */
+std::vector<double> ReadNumbers(const std::string& path, size_t count, const std::string& what)
 {
   std::ifstream in(path);
   if (!in)
-    throw InputError(path, "cannot open the projection matrix file");
+    throw InputError(path, "cannot open the " + what + " file");
   std::vector<double> values;
   std::string line;
   for (int number = 1; std::getline(in, line); ++number)
@@ -109,13 +113,35 @@ ProjectionMatrix ReadProjectionMatrix(const std::string& path)
       values.push_back(value);
     }
   }
-  if (values.size() != 12)
-    throw InputError(path, "holds " + std::to_string(values.size()) + " numbers; a projection matrix has 12 (3 rows of 4)");
+  if (values.size() != count)
+    throw InputError(path, "holds " + std::to_string(values.size()) + " numbers; " + what + " has " + std::to_string(count));
+  return values;
+}
+
+} // namespace
+
+ProjectionMatrix ReadProjectionMatrix(const std::string& path)
+{
+  const std::vector<double> values = ReadNumbers(path, 12, "a projection matrix (3 rows of 4)");
   ProjectionMatrix projection;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c)
       projection(r, c) = values[static_cast<size_t>(r) * 4 + c];
   return projection;
+}
+
+ProjectionMatrix ReadPinholeCalibration(const std::string& intrinsicsPath, const std::string& extrinsicsPath)
+{
+  const std::vector<double> k = ReadNumbers(intrinsicsPath, 9, "an intrinsics matrix K (3 rows of 3)");
+  Eigen::Matrix3d intrinsics;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      intrinsics(r, c) = k[static_cast<size_t>(r) * 3 + c];
+  const ProjectionMatrix pose = ReadProjectionMatrix(extrinsicsPath);
+  const Eigen::Matrix3d rotation = pose.leftCols<3>();
+  if (!((rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-6 && rotation.determinant() > 0.0))
+    throw InputError(extrinsicsPath, "the rotation R of [R | t] is not a rotation (orthonormal, determinant 1, within 1e-6)");
+  return intrinsics * pose;
 }
 
 } // namespace xp

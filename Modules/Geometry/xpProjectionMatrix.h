@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 
 #include <string>
+#include <vector>
 
 namespace xp
 {
@@ -40,6 +41,10 @@ VTKXPGEOMETRY_EXPORT XRayView ViewFromProjectionMatrix(const ProjectionMatrix& p
 /** Reads 12 numbers (3 rows of 4; '#' starts a comment) from a text file; throws xp::InputError
  *  naming the file when it holds more, fewer or a non-number. */
 VTKXPGEOMETRY_EXPORT ProjectionMatrix ReadProjectionMatrix(const std::string& path);
+
+/** P = K [R | t] from a pinhole calibration: K (3 rows of 3, pixels) in one text file, the Room
+ *  to camera transform [R | t] (3 rows of 4, mm) in another; R must be a rotation. */
+VTKXPGEOMETRY_EXPORT ProjectionMatrix ReadPinholeCalibration(const std::string& intrinsicsPath, const std::string& extrinsicsPath);
 
 } // namespace xp
 

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <random>
 #include <sstream>
 #include <gtest/gtest.h>
@@ -721,6 +722,34 @@ TEST(Commands, GeometryFromProjectionMatricesRoundTripsTheReferenceGeometry)
     EXPECT_LT(std::acos(std::min(1.0, a.rowDirection.dot(b.rowDirection))) * 180.0 / M_PI, 0.01);
     EXPECT_LT(std::acos(std::min(1.0, a.columnDirection.dot(b.columnDirection))) * 180.0 / M_PI, 0.01);
   }
+  // The same imagers as pinhole calibrations: K in pixels, [R | t] from Room to camera.
+  xp::GeometryOptions pinhole = options;
+  pinhole.projectionMatrices.clear();
+  for (const xp::XRayView& view : reference.views)
+  {
+    Eigen::Matrix3d rotation; // rows: the panel's row and column directions, source to panel
+    rotation << view.rowDirection.transpose(), view.columnDirection.transpose(), -view.NormalTowardsSource().transpose();
+    Eigen::Matrix<double, 3, 4> rt;
+    rt << rotation, -rotation * view.source;
+    const Eigen::Matrix3d intrinsics = xp::ProjectionMatrixOf(view).leftCols<3>() * rotation.transpose();
+    const std::string k = "cmd-geometry-K_" + view.name + ".txt", e = "cmd-geometry-Rt_" + view.name + ".txt";
+    std::ofstream(k) << std::setprecision(17) << intrinsics << "\n";
+    std::ofstream(e) << std::setprecision(17) << rt << "\n";
+    pinhole.intrinsics.push_back(k);
+    pinhole.extrinsics.push_back(e);
+  }
+  std::remove(options.output.c_str());
+  ASSERT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(pinhole); }), xp::ExitOk);
+  const xp::StereoGeometry fromPinhole = xp::ReadStereoGeometry(options.output);
+  for (size_t v = 0; v < fromPinhole.views.size(); ++v)
+  {
+    EXPECT_LT((fromPinhole.views[v].source - reference.views[v].source).norm(), 0.1);
+    EXPECT_LT((fromPinhole.views[v].detectorCenter - reference.views[v].detectorCenter).norm(), 0.1);
+  }
+  xp::GeometryOptions both = pinhole;
+  both.projectionMatrices = options.projectionMatrices;
+  EXPECT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(both); }), xp::ExitBadInput) << "one source only";
+
   // Bad input: a name short, a spacing whose ratio P contradicts; exit 2 and no file written.
   std::remove(options.output.c_str());
   xp::GeometryOptions bad = options;

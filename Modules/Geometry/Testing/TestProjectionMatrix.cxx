@@ -100,6 +100,23 @@ TEST(ProjectionMatrix, ReadsTwelveNumbersAndNamesTheFileOtherwise)
     std::ofstream("pm-short.txt") << "1 0 0 10\n0 2 0 20\n0 0 1\n";
     std::ofstream("pm-word.txt") << "1 0 0 10\n0 2 0 20\n0 0 1 x\n";
   }
+  {
+    std::ofstream("pm-K.txt") << "1000 0 512\n0 1000 384\n0 0 1\n";
+    std::ofstream("pm-Rt.txt") << "1 0 0 0\n0 1 0 0\n0 0 1 1000\n";
+    std::ofstream("pm-Rt-scaled.txt") << "2 0 0 0\n0 2 0 0\n0 0 2 1000\n";
+  }
+  const xp::ProjectionMatrix pinhole = xp::ReadPinholeCalibration("pm-K.txt", "pm-Rt.txt");
+  EXPECT_DOUBLE_EQ(pinhole(0, 2), 512.0);
+  EXPECT_DOUBLE_EQ(pinhole(0, 3), 512.0 * 1000.0) << "K times t";
+  try
+  {
+    xp::ReadPinholeCalibration("pm-K.txt", "pm-Rt-scaled.txt");
+    ADD_FAILURE() << "a scaled R was taken for a rotation";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("pm-Rt-scaled.txt"), std::string::npos) << e.what();
+  }
   const xp::ProjectionMatrix p = xp::ReadProjectionMatrix("pm-good.txt");
   EXPECT_DOUBLE_EQ(p(1, 1), 2.0);
   EXPECT_DOUBLE_EQ(p(2, 3), 1000.0);
