@@ -1,5 +1,7 @@
 #include "xpCTCoverage.h"
 
+#include "xpError.h"
+
 #include <vtkSMPTools.h>
 
 #include <algorithm>
@@ -159,6 +161,8 @@ EndFaceEvidence MeasureAnatomyBeyondEndFaces(const std::vector<uint16_t>& xray, 
   const std::vector<uint8_t>& content, const std::vector<uint8_t>& endFaces, double minExcess)
 {
   const size_t n = xray.size();
+  if (drr.size() != n || endFaces.size() != n || !(content.empty() || content.size() == n))
+    throw InputError("end-face evidence", "the X-ray, DRR, content mask and end-face labels differ in size");
   const auto counts = [&](size_t i) { return content.empty() || content[i]; };
   EndFaceEvidence evidence;
   for (size_t i = 0; i < n; ++i)
@@ -172,7 +176,7 @@ EndFaceEvidence MeasureAnatomyBeyondEndFaces(const std::vector<uint16_t>& xray, 
     if (counts(i) && endFaces[i] == 0)
       covered.emplace_back(drr[i], xray[i]);
   constexpr int levels = 64;
-  if (minExcess <= 0.0 || static_cast<long long>(covered.size()) < 8 * levels)
+  if (!(minExcess > 0.0) || static_cast<long long>(covered.size()) < 8 * levels) // NaN: the safe side
   {
     evidence.facesToLeaveOut = BothEndFaces;
     return evidence;

@@ -67,6 +67,11 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
       throw InputError(std::string("registration settings: ") + name, "must be finite and positive");
     }
   }
+  // Not a gate limit, but a NaN here would keep every end face without a word.
+  if (!(settings.coverageMinExcess >= 0.0 && settings.coverageMinExcess <= 1.0))
+  {
+    throw InputError("registration settings: coverageMinExcess", "must be between 0 and 1");
+  }
   if (!(settings.minValidPixelsPerCell >= 0.0 && settings.minValidPixelsPerCell <= 1000.0))
   {
     throw InputError("registration settings: minValidPixelsPerCell", "must be between 0 and 1000");

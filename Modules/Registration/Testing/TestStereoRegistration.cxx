@@ -1,6 +1,7 @@
 // The 6-DOF objective and optimiser recover known misalignments of the head phantom from
 // simulated stereo X-rays, with the signs of GEOMETRY.md.
 #include "xpCTCoverage.h"
+#include "xpError.h"
 #include "xpHeadPhantom.h"
 #include "xpPoseOptimizer.h"
 #include "xpReferenceGeometry.h"
@@ -591,9 +592,10 @@ TEST(CTCoverage, LeavesOutOnlyTheEndFacesBeyondWhichTheXRayShowsAnatomy)
       const xp::EndFaceEvidence same = xp::MeasureAnatomyBeyondEndFaces(xray(asLong[v].xray), drrs[v].xray, {}, faces, minExcess);
       EXPECT_EQ(same.facesToLeaveOut, 0) << "view " << v << (invert ? " inverted" : "") << ": excess " << same.excess[0]
                                          << ", " << same.excess[1];
-      // 0: always left out.
-      EXPECT_EQ(xp::MeasureAnatomyBeyondEndFaces(xray(asLong[v].xray), drrs[v].xray, {}, faces, 0.0).facesToLeaveOut,
-        xp::BothEndFaces);
+      // 0 (and NaN): always left out.
+      for (const double always : { 0.0, std::nan("") })
+        EXPECT_EQ(xp::MeasureAnatomyBeyondEndFaces(xray(asLong[v].xray), drrs[v].xray, {}, faces, always).facesToLeaveOut,
+          xp::BothEndFaces);
     }
     // An X-ray-only object over a tenth of a face's rays (a frame, a rail) is not anatomy beyond it.
     std::vector<uint16_t> withObject = asLong[v].xray;
@@ -606,6 +608,8 @@ TEST(CTCoverage, LeavesOutOnlyTheEndFacesBeyondWhichTheXRayShowsAnatomy)
         ++marked;
       }
     EXPECT_EQ(xp::MeasureAnatomyBeyondEndFaces(withObject, drrs[v].xray, {}, faces, minExcess).facesToLeaveOut, 0);
+    const std::vector<uint8_t> shorter(faces.begin(), faces.end() - 1);
+    EXPECT_THROW(xp::MeasureAnatomyBeyondEndFaces(withObject, drrs[v].xray, {}, shorter, minExcess), xp::InputError);
   }
 }
 
