@@ -9,11 +9,14 @@
 #include <vtkImageData.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
+#include <vtkSMPTools.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <functional>
 #include <sstream>
 #include <sys/stat.h>
 
@@ -57,9 +60,11 @@ vtkSmartPointer<vtkImageData> DisplayImage(vtkImageData* lineIntegral, vtkImageD
   float low = 0.0f, high = 1.0f;
   if (!values.empty())
   {
-    std::sort(values.begin(), values.end());
-    low = values[values.size() / 200];
-    high = std::max(values[values.size() - 1 - values.size() / 200], low + 1e-6f);
+    const auto lowAt = values.begin() + values.size() / 200, highAt = values.end() - 1 - values.size() / 200;
+    std::nth_element(values.begin(), lowAt, values.end());
+    low = *lowAt;
+    std::nth_element(lowAt, highAt, values.end());
+    high = std::max(*highAt, low + 1e-6f);
   }
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->CopyStructure(lineIntegral);
@@ -71,6 +76,32 @@ vtkSmartPointer<vtkImageData> DisplayImage(vtkImageData* lineIntegral, vtkImageD
     out[i] = ok[i] ? static_cast<uint8_t>(std::lround(255.0 * level)) : 0;
   }
   return image;
+}
+
+/** Runs independent jobs on all cores; the first exception (in job order) is rethrown here. */
+void RunInParallel(const std::vector<std::function<void()>>& jobs)
+{
+  std::vector<std::exception_ptr> failures(jobs.size());
+  vtkSMPTools::For(0, static_cast<vtkIdType>(jobs.size()), 1,
+    [&](vtkIdType begin, vtkIdType end)
+    {
+      for (vtkIdType j = begin; j < end; ++j)
+      {
+        try
+        {
+          jobs[j]();
+        }
+        catch (...)
+        {
+          failures[j] = std::current_exception();
+        }
+      }
+    });
+  for (const std::exception_ptr& failure : failures)
+  {
+    if (failure)
+      std::rethrow_exception(failure);
+  }
 }
 
 } // namespace
@@ -156,7 +187,12 @@ int RunDRR(const DRROptions& options)
   std::printf("CT %s: %d x %d x %d voxels, patient position %s; read in %.2f s\n", options.ct.c_str(), dims[0], dims[1],
     dims[2], setup.ct.patientPosition.c_str(), readSeconds);
   std::printf("misalignment: %s\n", pose.ToString().c_str());
+  // Views are rendered one after the other (each on all cores); their files are then encoded
+  // and written in parallel, as PNG compression runs on one core. The write jobs only read
+  // images made here: VTK objects are created and released on this thread alone.
   StagedOutputDirectory output(options.outputDirectory);
+  std::vector<vtkSmartPointer<vtkImageData>> images;
+  std::vector<std::function<void()>> writes;
   for (size_t v = 0; v < setup.geometry.views.size(); ++v)
   {
     const XRayView& view = setup.geometry.views[v];
@@ -168,10 +204,17 @@ int RunDRR(const DRROptions& options)
       throw Error("view " + view.name, "DRR rendering failed");
     }
     const XRayView rendered = drr->GetOutputView();
-    WritePNG(drr->GetOutput(0), output.Path("drr_" + view.name + ".png"));
-    WritePNG(DisplayImage(drr->GetOutput(1), drr->GetOutput(2)), output.Path("drr_" + view.name + "_display.png"));
-    WriteDetectorMetaImage(Transmission(drr->GetOutput(1), drr->GetOutput(2)), rendered,
-      output.Path("drr_" + view.name + ".mha"));
+    auto drr12Bit = vtkSmartPointer<vtkImageData>::New();
+    drr12Bit->DeepCopy(drr->GetOutput(0)); // the next view's Update reuses the filter's outputs
+    images.push_back(drr12Bit);
+    images.push_back(DisplayImage(drr->GetOutput(1), drr->GetOutput(2)));
+    images.push_back(Transmission(drr->GetOutput(1), drr->GetOutput(2)));
+    vtkImageData* made[3] = { images[images.size() - 3], images[images.size() - 2], images.back() };
+    const std::string stem = "drr_" + view.name;
+    writes.emplace_back([&output, stem, image = made[0]] { WritePNG(image, output.Path(stem + ".png")); });
+    writes.emplace_back([&output, stem, image = made[1]] { WritePNG(image, output.Path(stem + "_display.png")); });
+    writes.emplace_back([&output, stem, rendered, image = made[2]]
+      { WriteDetectorMetaImage(image, rendered, output.Path(stem + ".mha")); });
     const double seconds = drr->GetLastRenderSeconds();
     if (v == 0)
     {
@@ -180,6 +223,7 @@ int RunDRR(const DRROptions& options)
     std::printf("view %s: %dx%d, %lld rays in %.3f s (%.2f M rays/s)\n", view.name.c_str(), rendered.Columns(),
       rendered.Rows(), drr->GetNumberOfTracedRays(), seconds, drr->GetNumberOfTracedRays() / seconds / 1e6);
   }
+  RunInParallel(writes);
   output.Commit();
   std::printf("wrote drr_NAME.png (16-bit, 0..4095), drr_NAME_display.png (8-bit, log-windowed for viewing) and drr_NAME.mha "
               "(float transmission) to %s\n",

@@ -1,13 +1,13 @@
 #include "xpAttenuationVolume.h"
 
 #include "xpError.h"
+#include "xpHugePages.h"
 
 #include <vtkSMPTools.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <cstdint>
-#include <sys/mman.h>
 
 namespace xp
 {
@@ -15,23 +15,11 @@ namespace xp
 namespace
 {
 
-/** Zeroed storage aligned to 2 MiB and marked for transparent huge pages: a ray touches voxels
- *  far apart in memory, and 4 KiB pages would cost a TLB miss on most samples. Fresh anonymous
- *  pages are zero already, and are first touched by the threads that fill them. */
+/** Zeroed voxels on huge pages: a ray touches voxels far apart in memory, and 4 KiB pages would
+ *  cost a TLB miss on most samples. Pages are first touched by the threads that fill them. */
 std::shared_ptr<uint16_t> AllocateVoxels(size_t count)
 {
-  constexpr size_t HugePage = size_t(2) << 20;
-  const size_t bytes = (count * sizeof(uint16_t) + HugePage - 1) / HugePage * HugePage;
-  const size_t mapped = bytes + HugePage; // room to align the start
-  void* memory = mmap(nullptr, mapped, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-  if (memory == MAP_FAILED)
-  {
-    throw Error("attenuation volume: out of memory (" + std::to_string(bytes >> 20) + " MiB)");
-  }
-  const uintptr_t address = reinterpret_cast<uintptr_t>(memory);
-  auto* aligned = reinterpret_cast<uint16_t*>((address + HugePage - 1) / HugePage * HugePage);
-  madvise(aligned, bytes, MADV_HUGEPAGE);
-  return std::shared_ptr<uint16_t>(aligned, [memory, mapped](uint16_t*) { munmap(memory, mapped); });
+  return std::shared_ptr<uint16_t>(static_cast<uint16_t*>(AllocateHugePages(count * sizeof(uint16_t))), &FreeHugePages);
 }
 
 } // namespace

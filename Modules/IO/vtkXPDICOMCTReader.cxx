@@ -2,6 +2,7 @@
 
 #include "xpDICOMSeries.h"
 #include "xpError.h"
+#include "xpHugePages.h"
 
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -11,8 +12,6 @@
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
-#include <algorithm>
-#include <vector>
 
 vtkStandardNewMacro(vtkXPDICOMCTReader);
 
@@ -70,10 +69,12 @@ int vtkXPDICOMCTReader::RequestData(vtkInformation*, vtkInformationVector**, vtk
   }
   const xp::CTSeriesInfo& info = *this->Info;
   vtkImageData* output = vtkImageData::GetData(outputVector);
-  std::vector<float> hu;
+  const vtkIdType count = static_cast<vtkIdType>(info.columns) * info.rows * static_cast<vtkIdType>(info.files.size());
+  vtkSmartPointer<vtkFloatArray> scalars;
   try
   {
-    xp::ReadCTSeriesVoxels(info, hu);
+    scalars = xp::NewHugePageFloatArray(count); // filled once, then read out of order by ray casting
+    xp::ReadCTSeriesVoxels(info, scalars->GetPointer(0));
   }
   catch (const xp::Error& e)
   {
@@ -81,15 +82,12 @@ int vtkXPDICOMCTReader::RequestData(vtkInformation*, vtkInformationVector**, vtk
     vtkErrorMacro(<< e.what());
     return 0;
   }
+  scalars->SetName("HU");
   output->SetDimensions(info.columns, info.rows, static_cast<int>(info.files.size()));
   output->SetSpacing(info.spacing.data());
   output->SetOrigin(info.origin.data());
   output->SetDirectionMatrix(info.direction(0, 0), info.direction(0, 1), info.direction(0, 2), info.direction(1, 0),
     info.direction(1, 1), info.direction(1, 2), info.direction(2, 0), info.direction(2, 1), info.direction(2, 2));
-  vtkNew<vtkFloatArray> scalars;
-  scalars->SetName("HU");
-  scalars->SetNumberOfValues(static_cast<vtkIdType>(hu.size()));
-  std::copy(hu.begin(), hu.end(), scalars->GetPointer(0));
   output->GetPointData()->SetScalars(scalars);
   return 1;
 }

@@ -318,10 +318,9 @@ CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& serie
   return info;
 }
 
-void ReadCTSeriesVoxels(const CTSeriesInfo& info, std::vector<float>& hounsfield)
+void ReadCTSeriesVoxels(const CTSeriesInfo& info, float* hounsfield)
 {
   const size_t sliceSize = static_cast<size_t>(info.columns) * info.rows;
-  hounsfield.resize(sliceSize * info.files.size());
   std::vector<char> raw;
   for (size_t k = 0; k < info.files.size(); ++k)
   {
@@ -348,7 +347,7 @@ void ReadCTSeriesVoxels(const CTSeriesInfo& info, std::vector<float>& hounsfield
     {
       throw InputError(file, "pixel data is shorter than Rows x Columns");
     }
-    float* out = hounsfield.data() + k * sliceSize;
+    float* out = hounsfield + k * sliceSize;
     const double slope = image.GetSlope(), intercept = image.GetIntercept();
     switch (format.GetScalarType())
     {

@@ -41,9 +41,10 @@ VTKXPIO_EXPORT CTSeriesInfo ScanCTSeries(const std::string& directory, const std
 
 /**
  * Reads the pixels of a scanned series in Hounsfield units (rescale slope/intercept applied),
- * x fastest, slice by slice in sorted order. Throws xp::InputError naming the file that fails.
+ * x fastest, slice by slice in sorted order, into `hounsfield`, which has room for
+ * columns x rows x slices values. Throws xp::InputError naming the file that fails.
  */
-VTKXPIO_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, std::vector<float>& hounsfield);
+VTKXPIO_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, float* hounsfield);
 
 } // namespace xp
 

@@ -7,7 +7,6 @@
 #include <Eigen/Geometry>
 #include <vtkImageData.h>
 #include <vtkNew.h>
-#include <vtkPNGWriter.h>
 #include <vtkPointData.h>
 #include <vtkDataArray.h>
 
@@ -32,14 +31,17 @@ void WritePNG(vtkImageData* image, const std::string& path)
   {
     throw Error(path, "PNG needs 8- or 16-bit unsigned pixels");
   }
-  vtkNew<vtkPNGWriter> writer;
-  writer->SetInputData(image);
-  writer->SetFileName(path.c_str());
-  writer->Write();
-  if (writer->GetErrorCode() != 0)
+  int dims[3];
+  image->GetDimensions(dims);
+  if (dims[2] != 1 || image->GetNumberOfPoints() == 0)
   {
-    throw Error(path, "cannot write PNG");
+    throw Error(path, "PNG needs a 2D image");
   }
+  // VTK row 0 is the bottom row; PNG's first row is the top (detector row 0).
+  const int channels = image->GetNumberOfScalarComponents();
+  const std::ptrdiff_t rowBytes = static_cast<std::ptrdiff_t>(dims[0]) * channels * image->GetScalarSize();
+  const auto* bottom = static_cast<const unsigned char*>(image->GetScalarPointer());
+  EncodePNG(path, bottom + rowBytes * (dims[1] - 1), -rowBytes, dims[0], dims[1], channels, type == VTK_UNSIGNED_SHORT ? 16 : 8);
 }
 
 vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows)
@@ -121,12 +123,15 @@ void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std
       << "ElementSpacing = " << view.pixelSpacing[0] << " " << view.pixelSpacing[1] << " 1\n"
       << "DimSize = " << dims[0] << " " << dims[1] << " 1\nElementType = MET_FLOAT\n"
       << "ElementDataFile = LOCAL\n";
+  // Detector row 0 (VTK row rows-1) first; one write, as many small ones cost more than the copy.
   const float* pixels = static_cast<const float*>(image->GetScalarPointer());
-  for (int row = 0; row < dims[1]; ++row) // detector row 0 first: VTK row rows-1
+  std::vector<float> detectorOrder(static_cast<size_t>(dims[0]) * dims[1]);
+  for (int row = 0; row < dims[1]; ++row)
   {
-    out.write(reinterpret_cast<const char*>(pixels + static_cast<size_t>(dims[1] - 1 - row) * dims[0]),
-      sizeof(float) * dims[0]);
+    std::copy_n(pixels + static_cast<size_t>(dims[1] - 1 - row) * dims[0], dims[0],
+      detectorOrder.data() + static_cast<size_t>(row) * dims[0]);
   }
+  out.write(reinterpret_cast<const char*>(detectorOrder.data()), static_cast<std::streamsize>(sizeof(float) * detectorOrder.size()));
   if (!out)
   {
     throw Error(path, "cannot write MetaImage");

@@ -116,51 +116,94 @@ VoxelType ElementType(const std::string& name, const std::string& path)
   return it->second;
 }
 
-/** Inflates a zlib (or gzip) stream into exactly `expected` bytes; anything else is an error. */
-std::vector<char> Inflate(const std::vector<char>& compressed, uint64_t expected, const std::string& path)
+/** Inflates a zlib (or gzip) stream piece by piece into exactly the bytes the header declares;
+ *  a stream that ends early, is corrupt or holds more is an error. */
+class Inflater
 {
-  std::vector<char> out(expected);
-  z_stream stream{};
-  if (inflateInit2(&stream, 15 + 32) != Z_OK)
+public:
+  Inflater(const std::vector<char>& compressed, uint64_t expected, const std::string& path)
+    : Expected(expected)
+    , Path(path)
   {
-    throw Error(path, "cannot start zlib");
-  }
-  stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(compressed.data()));
-  stream.next_out = reinterpret_cast<Bytef*>(out.data());
-  uint64_t inLeft = compressed.size(), outLeft = expected;
-  int status = Z_OK;
-  while (status == Z_OK)
-  {
-    // zlib counts in 32-bit chunks; feed it piecewise so volumes over 4 GiB would work too.
-    const uInt inChunk = static_cast<uInt>(std::min<uint64_t>(inLeft, 1u << 30));
-    const uInt outChunk = static_cast<uInt>(std::min<uint64_t>(outLeft, 1u << 30));
-    stream.avail_in = inChunk;
-    stream.avail_out = outChunk;
-    status = inflate(&stream, Z_NO_FLUSH);
-    inLeft -= inChunk - stream.avail_in;
-    outLeft -= outChunk - stream.avail_out;
-    if (status == Z_OK && inChunk == stream.avail_in && outChunk == stream.avail_out)
+    if (inflateInit2(&this->Stream, 15 + 32) != Z_OK)
     {
-      break; // no progress: input or output exhausted
+      throw Error(path, "cannot start zlib");
+    }
+    this->Stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(compressed.data()));
+    this->InLeft = compressed.size();
+  }
+  ~Inflater() { inflateEnd(&this->Stream); }
+  Inflater(const Inflater&) = delete;
+  Inflater& operator=(const Inflater&) = delete;
+
+  /** The next `count` bytes of the inflated data. */
+  void Read(char* out, uint64_t count)
+  {
+    this->Stream.next_out = reinterpret_cast<Bytef*>(out);
+    while (count > 0)
+    {
+      // zlib counts in 32-bit chunks; feed it piecewise so volumes over 4 GiB would work too.
+      const uInt outChunk = static_cast<uInt>(std::min<uint64_t>(count, 1u << 30));
+      const uInt produced = this->Step(outChunk);
+      count -= produced;
+      if (count > 0 && (this->Status != Z_OK || produced == 0))
+      {
+        this->CheckStatus();
+        throw InputError(this->Path, "compressed data ends after " + std::to_string(this->Produced) + " of the " +
+            std::to_string(this->Expected) + " bytes that DimSize and ElementType need (truncated file)");
+      }
     }
   }
-  inflateEnd(&stream);
-  // Z_BUF_ERROR: no progress was possible, the input ended first.
-  if (status != Z_STREAM_END && status != Z_OK && status != Z_BUF_ERROR)
+
+  /** After the last Read: the stream must end here. */
+  void CheckEnd()
   {
-    throw InputError(path, std::string("compressed data is corrupt (zlib: ") + (stream.msg ? stream.msg : "error") + ")");
+    while (this->Status == Z_OK)
+    {
+      const uint64_t inBefore = this->InLeft;
+      unsigned char extra = 0;
+      this->Stream.next_out = &extra;
+      if (this->Step(1) > 0 || (this->Status == Z_OK && this->InLeft == inBefore))
+        break; // more output, or no progress: the stream does not end where the header says
+    }
+    this->CheckStatus();
+    if (this->Status != Z_STREAM_END)
+    {
+      throw InputError(this->Path, "compressed data holds more than DimSize and ElementType declare");
+    }
   }
-  if (outLeft != 0)
+
+private:
+  /** One inflate call with room for `room` bytes; returns the bytes produced. */
+  uInt Step(uInt room)
   {
-    throw InputError(path, "compressed data ends after " + std::to_string(expected - outLeft) + " of the " +
-        std::to_string(expected) + " bytes that DimSize and ElementType need (truncated file)");
+    const uInt inChunk = static_cast<uInt>(std::min<uint64_t>(this->InLeft, 1u << 30));
+    this->Stream.avail_in = inChunk;
+    this->Stream.avail_out = room;
+    this->Status = inflate(&this->Stream, Z_NO_FLUSH);
+    this->InLeft -= inChunk - this->Stream.avail_in;
+    const uInt produced = room - this->Stream.avail_out;
+    this->Produced += produced;
+    return produced;
   }
-  if (status != Z_STREAM_END)
+
+  void CheckStatus() const
   {
-    throw InputError(path, "compressed data holds more than DimSize and ElementType declare");
+    // Z_BUF_ERROR: no progress was possible, the input ended first.
+    if (this->Status != Z_STREAM_END && this->Status != Z_OK && this->Status != Z_BUF_ERROR)
+    {
+      throw InputError(this->Path,
+        std::string("compressed data is corrupt (zlib: ") + (this->Stream.msg ? this->Stream.msg : "error") + ")");
+    }
   }
-  return out;
-}
+
+  z_stream Stream{};
+  uint64_t InLeft = 0;
+  uint64_t Produced = 0;
+  const uint64_t Expected;
+  const std::string Path;
+  int Status = Z_OK;
+};
 
 } // namespace
 
@@ -274,16 +317,26 @@ CTVolume ReadMetaImage(const std::string& path)
   {
     throw InputError(dataPath, "cannot open the voxel data (ElementDataFile)");
   }
-  std::vector<char> bytes(compressed ? available : expected);
-  if (!data.read(bytes.data(), static_cast<std::streamsize>(bytes.size())))
+  if (!compressed)
+  {
+    return MakeCTVolume(header, path,
+      [&](char* voxels, uint64_t count)
+      {
+        if (!data.read(voxels, static_cast<std::streamsize>(count)))
+        {
+          throw InputError(dataPath, "cannot read the voxel data");
+        }
+      });
+  }
+  std::vector<char> packed(available);
+  if (!data.read(packed.data(), static_cast<std::streamsize>(available)))
   {
     throw InputError(dataPath, "cannot read the voxel data");
   }
-  if (compressed)
-  {
-    bytes = Inflate(bytes, expected, dataPath);
-  }
-  return MakeCTVolume(header, bytes, path);
+  Inflater inflater(packed, expected, dataPath);
+  CTVolume volume = MakeCTVolume(header, path, [&](char* voxels, uint64_t count) { inflater.Read(voxels, count); });
+  inflater.CheckEnd();
+  return volume;
 }
 
 } // namespace xp

@@ -235,9 +235,7 @@ CTVolume ReadNIfTI(const std::string& path)
   }
   std::vector<char> skip(offset - HeaderBytes);
   ReadExactly(file.get(), skip.data(), skip.size(), path, "the NIfTI extension area");
-  std::vector<char> data(expected);
-  ReadExactly(file.get(), data.data(), expected, path, "the voxel data");
-  return MakeCTVolume(header, data, path);
+  return MakeCTVolume(header, path, [&](char* voxels, uint64_t count) { ReadExactly(file.get(), voxels, count, path, "the voxel data"); });
 }
 
 } // namespace xp

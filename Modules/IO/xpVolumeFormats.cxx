@@ -1,14 +1,17 @@
 #include "xpVolumeFormats.h"
 
 #include "xpError.h"
+#include "xpHugePages.h"
 
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
+#include <vtkSMPTools.h>
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <sys/stat.h>
@@ -25,33 +28,106 @@ constexpr int64_t MaxVoxels = int64_t(1) << 30;
 constexpr double MaxAbsoluteHU = 1e6;
 
 template <typename T>
-double Decode(const char* bytes, bool swap)
+T Swapped(T value)
 {
-  char copy[sizeof(T)];
-  std::memcpy(copy, bytes, sizeof(T));
-  if (swap)
-  {
-    std::reverse(copy, copy + sizeof(T));
-  }
-  T value;
-  std::memcpy(&value, copy, sizeof(T));
-  return static_cast<double>(value);
+  char bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));
+  std::reverse(bytes, bytes + sizeof(T));
+  std::memcpy(&value, bytes, sizeof(T));
+  return value;
 }
 
-/** Decodes, rescales and checks every voxel; returns the index of the first bad one, or -1. */
+/**
+ * Decodes, rescales and checks voxels [begin, end); returns the index of the first bad one, or
+ * -1. The loop has no early exit, so that it vectorises; a bad voxel is then looked for again.
+ */
+template <typename T>
+int64_t ConvertRange(const char* data, int64_t begin, int64_t end, bool swap, double slope, double intercept, float* out)
+{
+  bool allGood = true;
+  for (int64_t i = begin; i < end; ++i)
+  {
+    T stored;
+    std::memcpy(&stored, data + i * sizeof(T), sizeof(T));
+    const double value = static_cast<double>(swap ? Swapped(stored) : stored) * slope + intercept;
+    const bool good = std::abs(value) <= MaxAbsoluteHU; // false for NaN
+    allGood &= good;
+    out[i] = good ? static_cast<float>(value) : 0.0f;
+  }
+  if (allGood)
+    return -1;
+  for (int64_t i = begin; i < end; ++i)
+  {
+    T stored;
+    std::memcpy(&stored, data + i * sizeof(T), sizeof(T));
+    if (!(std::abs(static_cast<double>(swap ? Swapped(stored) : stored) * slope + intercept) <= MaxAbsoluteHU))
+      return i;
+  }
+  return -1;
+}
+
+/** ConvertRange over all voxels, in parallel; the first bad voxel in file order, or -1. */
 template <typename T>
 int64_t Convert(const char* data, int64_t count, bool swap, double slope, double intercept, float* out)
 {
-  for (int64_t i = 0; i < count; ++i)
-  {
-    const double value = Decode<T>(data + i * sizeof(T), swap) * slope + intercept;
-    if (!(std::abs(value) <= MaxAbsoluteHU))
+  std::atomic<int64_t> firstBad{ count };
+  vtkSMPTools::For(0, count, int64_t(1) << 20,
+    [&](int64_t begin, int64_t end)
     {
-      return i;
-    }
-    out[i] = static_cast<float>(value);
+      const int64_t bad = ConvertRange<T>(data, begin, end, swap, slope, intercept, out);
+      int64_t seen = firstBad.load();
+      while (bad >= 0 && bad < seen && !firstBad.compare_exchange_weak(seen, bad))
+      {
+      }
+    });
+  return firstBad.load() < count ? firstBad.load() : -1;
+}
+
+/** Reads the stored voxels a chunk at a time and converts each chunk in parallel; the first
+ *  bad voxel in file order, or -1 (reading stops there). */
+template <typename T>
+int64_t ConvertStream(const VolumeHeader& header, const std::function<void(char*, uint64_t)>& readVoxels, float* out)
+{
+  constexpr int64_t ChunkVoxels = int64_t(1) << 21; // at most 16 MiB of stored voxels in memory
+  const int64_t n = header.VoxelCount();
+  const bool swap = header.bigEndian && sizeof(T) > 1; // every supported host is little-endian
+  std::vector<char> chunk(static_cast<size_t>(std::min(n, ChunkVoxels)) * sizeof(T));
+  for (int64_t start = 0; start < n; start += ChunkVoxels)
+  {
+    const int64_t count = std::min(ChunkVoxels, n - start);
+    readVoxels(chunk.data(), static_cast<uint64_t>(count) * sizeof(T));
+    const int64_t bad = Convert<T>(chunk.data(), count, swap, header.slope, header.intercept, out + start);
+    if (bad >= 0)
+      return start + bad;
   }
   return -1;
+}
+
+/** Checks float voxels already in place, in parallel; the first bad one, or -1. */
+int64_t CheckInPlace(const float* voxels, int64_t count)
+{
+  std::atomic<int64_t> firstBad{ count };
+  vtkSMPTools::For(0, count, int64_t(1) << 20,
+    [&](int64_t begin, int64_t end)
+    {
+      bool allGood = true;
+      for (int64_t i = begin; i < end; ++i)
+        allGood &= std::abs(voxels[i]) <= static_cast<float>(MaxAbsoluteHU);
+      if (allGood)
+        return;
+      for (int64_t i = begin; i < end; ++i)
+      {
+        if (!(std::abs(voxels[i]) <= static_cast<float>(MaxAbsoluteHU)))
+        {
+          int64_t seen = firstBad.load();
+          while (i < seen && !firstBad.compare_exchange_weak(seen, i))
+          {
+          }
+          return;
+        }
+      }
+    });
+  return firstBad.load() < count ? firstBad.load() : -1;
 }
 
 } // namespace
@@ -129,12 +205,9 @@ void CheckVolumeHeader(const VolumeHeader& header, const std::string& path, cons
   }
 }
 
-CTVolume MakeCTVolume(const VolumeHeader& header, const std::vector<char>& data, const std::string& path)
+CTVolume MakeCTVolume(
+  const VolumeHeader& header, const std::string& path, const std::function<void(char*, uint64_t)>& readVoxels)
 {
-  if (data.size() != header.DataBytes())
-  {
-    throw Error(path, "internal: voxel data size differs from the header");
-  }
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetDimensions(static_cast<int>(header.dimensions[0]), static_cast<int>(header.dimensions[1]),
     static_cast<int>(header.dimensions[2]));
@@ -142,40 +215,45 @@ CTVolume MakeCTVolume(const VolumeHeader& header, const std::vector<char>& data,
   image->SetSpacing(header.spacing.data());
   const Eigen::Matrix3d& m = header.direction;
   image->SetDirectionMatrix(m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2));
-  vtkNew<vtkFloatArray> hu;
-  hu->SetName("HU");
-  hu->SetNumberOfValues(header.VoxelCount());
-  float* out = hu->GetPointer(0);
-  const bool swap = header.bigEndian; // every supported host is little-endian (x86-64, AArch64)
   const int64_t n = header.VoxelCount();
-  const double k = header.slope, c = header.intercept;
+  vtkSmartPointer<vtkFloatArray> hu = NewHugePageFloatArray(n);
+  hu->SetName("HU");
+  float* out = hu->GetPointer(0);
   int64_t bad = -1;
-  switch (header.type)
+  if (header.type == VoxelType::Float32 && !header.bigEndian && header.slope == 1.0 && header.intercept == 0.0)
   {
-    case VoxelType::Int8:
-      bad = Convert<int8_t>(data.data(), n, false, k, c, out);
-      break;
-    case VoxelType::UInt8:
-      bad = Convert<uint8_t>(data.data(), n, false, k, c, out);
-      break;
-    case VoxelType::Int16:
-      bad = Convert<int16_t>(data.data(), n, swap, k, c, out);
-      break;
-    case VoxelType::UInt16:
-      bad = Convert<uint16_t>(data.data(), n, swap, k, c, out);
-      break;
-    case VoxelType::Int32:
-      bad = Convert<int32_t>(data.data(), n, swap, k, c, out);
-      break;
-    case VoxelType::UInt32:
-      bad = Convert<uint32_t>(data.data(), n, swap, k, c, out);
-      break;
-    case VoxelType::Float32:
-      bad = Convert<float>(data.data(), n, swap, k, c, out);
-      break;
-    case VoxelType::Float64:
-      bad = Convert<double>(data.data(), n, swap, k, c, out);
-      break;
+    readVoxels(reinterpret_cast<char*>(out), header.DataBytes());
+    bad = CheckInPlace(out, n);
+  }
+  else
+  {
+    switch (header.type)
+    {
+      case VoxelType::Int8:
+        bad = ConvertStream<int8_t>(header, readVoxels, out);
+        break;
+      case VoxelType::UInt8:
+        bad = ConvertStream<uint8_t>(header, readVoxels, out);
+        break;
+      case VoxelType::Int16:
+        bad = ConvertStream<int16_t>(header, readVoxels, out);
+        break;
+      case VoxelType::UInt16:
+        bad = ConvertStream<uint16_t>(header, readVoxels, out);
+        break;
+      case VoxelType::Int32:
+        bad = ConvertStream<int32_t>(header, readVoxels, out);
+        break;
+      case VoxelType::UInt32:
+        bad = ConvertStream<uint32_t>(header, readVoxels, out);
+        break;
+      case VoxelType::Float32:
+        bad = ConvertStream<float>(header, readVoxels, out);
+        break;
+      case VoxelType::Float64:
+        bad = ConvertStream<double>(header, readVoxels, out);
+        break;
+    }
   }
   if (bad >= 0)
   {

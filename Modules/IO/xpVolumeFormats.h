@@ -15,6 +15,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -62,8 +63,15 @@ uint64_t FileSize(const std::string& path);
  */
 void CheckVolumeHeader(const VolumeHeader& header, const std::string& path, const std::array<std::string, 4>& fields);
 
-/** Converts exactly header.DataBytes() bytes to a float HU image; refuses non-finite voxels. */
-CTVolume MakeCTVolume(const VolumeHeader& header, const std::vector<char>& data, const std::string& path);
+/**
+ * Makes the float HU image of a volume whose voxel bytes, as stored in the file, `readVoxels`
+ * gives in order: each call writes the next `count` bytes to the pointer it is given, and the
+ * calls add up to header.DataBytes(). Stored native floats are read straight into the image;
+ * other types a few MiB at a time, converted and rescaled in parallel, so no copy of the whole
+ * file is held. Refuses non-finite voxels and voxels beyond +-1e6 HU, naming `path`.
+ */
+CTVolume MakeCTVolume(
+  const VolumeHeader& header, const std::string& path, const std::function<void(char*, uint64_t)>& readVoxels);
 
 CTVolume ReadMetaImage(const std::string& path);
 CTVolume ReadNIfTI(const std::string& path);

@@ -24,7 +24,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
     xp::fuzz::WriteFile("series/b.dcm", split + 8, size - first - 8);
   return xp::fuzz::Expect([&] {
     const xp::CTSeriesInfo info = xp::ScanCTSeries(folder);
-    std::vector<float> hounsfield;
-    xp::ReadCTSeriesVoxels(info, hounsfield);
+    std::vector<float> hounsfield(static_cast<size_t>(info.columns) * info.rows * info.files.size());
+    xp::ReadCTSeriesVoxels(info, hounsfield.data());
   });
 }

@@ -4,6 +4,9 @@
 #include "xpVolumeIO.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <zlib.h>
@@ -110,12 +113,113 @@ TEST(VolumeIO, MetaImageCompressedOrBesideItsHeaderIsReadAndRefusedWhenCut)
   EXPECT_EQ(xp::ReadCTVolume(dir + "/ct.mhd").image->GetScalarComponentAsDouble(1, 0, 0, 0), -990);
 }
 
+// More voxels than the reader converts at a time (2^21), so chunk borders are crossed.
+TEST(VolumeIO, LargeMetaImagesAreConvertedInFileOrderAndTheFirstBadVoxelIsNamed)
+{
+  const std::string dir = FreshFolder("mha-large");
+  const int nx = 130, ny = 130, nz = 130;
+  const size_t count = static_cast<size_t>(nx) * ny * nz;
+  const auto value = [](size_t i) { return static_cast<float>(static_cast<int>(i % 3001) - 1000); };
+  const auto write = [&](const std::string& name, bool bigEndian, bool compressed, size_t nanAt, size_t extraBytes) {
+    std::vector<unsigned char> bytes(count * 4);
+    for (size_t i = 0; i < count; ++i)
+    {
+      float v = i == nanAt ? std::nanf("") : value(i);
+      unsigned char* b = bytes.data() + 4 * i;
+      std::memcpy(b, &v, 4);
+      if (bigEndian)
+        std::reverse(b, b + 4);
+    }
+    bytes.resize(bytes.size() + extraBytes, 7);
+    std::ofstream out(dir + "/" + name, std::ios::binary);
+    out << "ObjectType = Image\nNDims = 3\nDimSize = " << nx << " " << ny << " " << nz << "\nElementType = MET_FLOAT\n"
+        << "BinaryDataByteOrderMSB = " << (bigEndian ? "True" : "False") << "\n"
+        << "CompressedData = " << (compressed ? "True" : "False") << "\nElementDataFile = LOCAL\n";
+    if (compressed)
+    {
+      std::vector<Bytef> packed(compressBound(bytes.size()));
+      uLongf packedSize = packed.size();
+      ASSERT_EQ(compress2(packed.data(), &packedSize, bytes.data(), bytes.size(), 1), Z_OK);
+      out.write(reinterpret_cast<const char*>(packed.data()), static_cast<std::streamsize>(packedSize));
+    }
+    else
+    {
+      out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    }
+  };
+  const size_t none = count;
+  const size_t secondChunk = (size_t(1) << 21) + 5;
+  for (const bool bigEndian : { false, true })
+  {
+    for (const bool compressed : { false, true })
+    {
+      const std::string name = std::string(bigEndian ? "msb" : "lsb") + (compressed ? "-z" : "") + ".mha";
+      SCOPED_TRACE(name);
+      write(name, bigEndian, compressed, none, 0);
+      const xp::CTVolume ct = xp::ReadCTVolume(dir + "/" + name);
+      const float* hu = static_cast<const float*>(ct.image->GetScalarPointer());
+      for (const size_t i : { size_t(0), size_t(1) << 21, secondChunk, count - 1 })
+        EXPECT_EQ(hu[i], value(i)) << "voxel " << i;
+      write("nan-" + name, bigEndian, compressed, secondChunk, 0);
+      try
+      {
+        xp::ReadCTVolume(dir + "/nan-" + name);
+        ADD_FAILURE() << "a NaN voxel was read";
+      }
+      catch (const xp::InputError& e)
+      {
+        EXPECT_NE(std::string(e.what()).find("voxel " + std::to_string(secondChunk) + " "), std::string::npos) << e.what();
+      }
+    }
+  }
+  write("long-z.mha", false, true, none, 8);
+  try
+  {
+    xp::ReadCTVolume(dir + "/long-z.mha");
+    ADD_FAILURE() << "compressed data longer than DimSize was read";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("holds more"), std::string::npos) << e.what();
+  }
+}
+
 TEST(VolumeIO, UnknownPathsAreRefused)
 {
   EXPECT_THROW(xp::ReadCTVolume("no/such/ct.mha"), xp::InputError);
   const std::string dir = FreshFolder("unknown");
   std::ofstream(dir + "/ct.txt") << "text";
   EXPECT_THROW(xp::ReadCTVolume(dir + "/ct.txt"), xp::InputError);
+}
+
+// PNG's first row is the top: VTK's last row. 16-bit samples keep their value (byte order).
+TEST(ImageIO, PNGRoundTripKeepsRowsAndSixteenBitValues)
+{
+  const std::string dir = FreshFolder("png");
+  vtkNew<vtkImageData> image;
+  image->SetDimensions(3, 2, 1);
+  image->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+  auto* pixels = static_cast<unsigned short*>(image->GetScalarPointer());
+  for (int i = 0; i < 6; ++i)
+    pixels[i] = static_cast<unsigned short>(1 + 700 * i); // up to 3501: 12-bit, both bytes used
+  xp::WritePNG(image, dir + "/x.png");
+  vtkSmartPointer<vtkImageData> back = xp::ReadXRayPNG(dir + "/x.png");
+  ASSERT_EQ(back->GetNumberOfPoints(), 6);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 3; ++i)
+      EXPECT_EQ(back->GetScalarComponentAsDouble(i, j, 0, 0), pixels[j * 3 + i]) << i << "," << j;
+  // The mask reader sees the same layout in 8 bits.
+  vtkNew<vtkImageData> mask;
+  mask->SetDimensions(3, 2, 1);
+  mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  auto* m = static_cast<unsigned char*>(mask->GetScalarPointer());
+  for (int i = 0; i < 6; ++i)
+    m[i] = i == 1 ? 255 : 0;
+  xp::WritePNG(mask, dir + "/m.png");
+  vtkSmartPointer<vtkImageData> maskBack = xp::ReadMaskPNG(dir + "/m.png", 3, 2);
+  for (int i = 0; i < 6; ++i)
+    EXPECT_EQ(static_cast<const unsigned char*>(maskBack->GetScalarPointer())[i], i == 1 ? 1 : 0) << i;
+  EXPECT_THROW(xp::WritePNG(mask, dir + "/no/such/folder/m.png"), xp::Error);
 }
 
 TEST(StagedOutputDirectory, NothingAppearsUnlessCommitted)

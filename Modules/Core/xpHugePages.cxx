@@ -1,0 +1,72 @@
+#include "xpHugePages.h"
+
+#include "xpError.h"
+
+#include <vtkFloatArray.h>
+
+#include <cstdint>
+#include <string>
+#include <sys/mman.h>
+
+namespace xp
+{
+
+namespace
+{
+
+constexpr size_t HugePage = size_t(2) << 20;
+
+/** Kept just below the aligned start, so that FreeHugePages needs nothing but the pointer. */
+struct Mapping
+{
+  void* start;
+  size_t length;
+};
+
+Mapping* MappingOf(void* aligned)
+{
+  return reinterpret_cast<Mapping*>(static_cast<char*>(aligned) - sizeof(Mapping));
+}
+
+} // namespace
+
+void* AllocateHugePages(size_t bytes)
+{
+  const size_t rounded = (bytes + HugePage - 1) / HugePage * HugePage;
+  if (rounded < bytes || rounded > SIZE_MAX - 2 * HugePage)
+  {
+    throw Error("memory: " + std::to_string(bytes) + " bytes cannot be allocated");
+  }
+  // One huge page of slack: room to align the start and to keep the Mapping record before it.
+  const size_t length = rounded + HugePage;
+  void* start = mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (start == MAP_FAILED)
+  {
+    throw Error("memory: out of memory (" + std::to_string(bytes >> 20) + " MiB)");
+  }
+  const uintptr_t address = reinterpret_cast<uintptr_t>(start) + sizeof(Mapping);
+  void* aligned = reinterpret_cast<void*>((address + HugePage - 1) / HugePage * HugePage);
+  *MappingOf(aligned) = Mapping{ start, length };
+  madvise(aligned, rounded, MADV_HUGEPAGE);
+  return aligned;
+}
+
+void FreeHugePages(void* memory)
+{
+  if (memory)
+  {
+    const Mapping mapping = *MappingOf(memory);
+    munmap(mapping.start, mapping.length);
+  }
+}
+
+vtkSmartPointer<vtkFloatArray> NewHugePageFloatArray(vtkIdType count)
+{
+  auto array = vtkSmartPointer<vtkFloatArray>::New();
+  auto* values = static_cast<float*>(AllocateHugePages(static_cast<size_t>(count) * sizeof(float)));
+  array->SetArray(values, count, 0, vtkFloatArray::VTK_DATA_ARRAY_USER_DEFINED);
+  array->SetArrayFreeFunction(&FreeHugePages);
+  return array;
+}
+
+} // namespace xp
