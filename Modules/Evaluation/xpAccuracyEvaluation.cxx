@@ -1,0 +1,138 @@
+#include "xpAccuracyEvaluation.h"
+
+#include "vtkXPStereoRegistrationFilter.h"
+#include "xpError.h"
+#include "xpImageGeometry.h"
+#include "xpImageRows.h"
+
+#include <vtkImageData.h>
+
+#include <algorithm>
+#include <chrono>
+
+namespace xp
+{
+
+TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::string& scenario, const Pose& truth,
+  const StereoRegistrationResult& result, const std::vector<Eigen::Vector3d>& targets,
+  const Eigen::Vector3d& roomIsocenter, double successMTRE, double seconds)
+{
+  TrialRecord r;
+  r.trial = trial;
+  r.approach = approach;
+  r.scenario = scenario;
+  r.initial = truth.Parameters();
+  r.initialTranslation = truth.translation.norm();
+  r.initialMTRE = MeanTRE(targets, truth, Pose{}, roomIsocenter);
+  r.status = result.ok ? "ok" : "failed";
+  const std::array<double, 6> estimated = result.misalignment.Parameters();
+  for (int a = 0; a < 6; ++a)
+    r.error[a] = estimated[a] - r.initial[a];
+  r.mtre = MeanTRE(targets, result.misalignment, truth, roomIsocenter);
+  r.success = result.ok && r.mtre < successMTRE;
+  r.prealignSeconds = result.prealignSeconds;
+  r.maskSeconds = result.maskSeconds;
+  r.fineSeconds = result.fineSeconds;
+  r.totalSeconds = seconds;
+  r.drrCount = result.drrCount;
+  r.evaluations = result.evaluations;
+  if (!result.explained.empty())
+  {
+    r.explained = *std::min_element(result.explained.begin(), result.explained.end());
+    r.residualMM = *std::max_element(result.viewResidualMM.begin(), result.viewResidualMM.end());
+    r.uncovered = *std::max_element(result.uncovered.begin(), result.uncovered.end());
+  }
+  r.searchApartMM = result.searchDisagreementMM;
+  r.searchApartDegrees = result.searchDisagreementDegrees;
+  r.validPixels = -1;
+  for (const std::vector<uint8_t>& mask : result.masks)
+  {
+    const long long valid = std::count(mask.begin(), mask.end(), 1);
+    r.validPixels = r.validPixels < 0 ? valid : std::min(r.validPixels, valid);
+  }
+  r.endFaceExcessMin = result.endFaces.empty() ? 0.0 : 1e9;
+  r.endFaceExcessMax = result.endFaces.empty() ? 0.0 : -1e9;
+  for (const EndFaceEvidence& faces : result.endFaces)
+    for (int f = 0; f < 2; ++f)
+    {
+      r.endFaceExcessMin = std::min(r.endFaceExcessMin, faces.excess[f]);
+      r.endFaceExcessMax = std::max(r.endFaceExcessMax, faces.excess[f]);
+      r.endFacesLeftOut += (faces.facesToLeaveOut >> f) & 1;
+    }
+  for (const std::string& reason : result.Reasons())
+    r.reasons += (r.reasons.empty() ? "" : "; ") + reason;
+  return r;
+}
+
+AccuracyEvaluation::AccuracyEvaluation(const EvaluationScenario& scenario, vtkImageData* ct, const PatientSetup& patient,
+  const StereoGeometry& geometry, const AccuracyEvaluationSettings& settings)
+  : Scenario(scenario.Name())
+  , Settings(settings)
+  , RoomIsocenter(patient.roomIsocenter)
+  , XRays(scenario, ct, patient, geometry.views, settings.shrinkFactor)
+  , Registration(vtkSmartPointer<vtkXPStereoRegistrationFilter>::New())
+{
+  const Eigen::Vector3d isoInCT = patient.IsocenterInCT(ImageCenter(ct));
+  this->Targets = TargetPoints(ct, isoInCT, patient.PlannedCTToRoom(ImageCenter(ct)));
+  // The filter keeps the CT's attenuation between trials; the X-rays reach it at the
+  // registration size.
+  this->Registration->SetCTData(scenario.RegistrationCT(ct));
+  StereoGeometry registrationGeometry = geometry;
+  for (XRayView& panel : registrationGeometry.views)
+    panel = panel.Resampled(panel.Columns() / settings.shrinkFactor, panel.Rows() / settings.shrinkFactor);
+  this->Registration->SetGeometry(registrationGeometry);
+  // The isocentre stays where the whole CT puts it: a cut CT's centre is elsewhere.
+  this->Registration->SetPatientSetup({ patient.position, isoInCT, patient.roomIsocenter });
+}
+
+AccuracyEvaluation::~AccuracyEvaluation() = default;
+
+void AccuracyEvaluation::Run(
+  int trials, const std::vector<std::string>& approaches, EvaluationFolder& folder, const Progress& progress)
+{
+  int registered = 0, remaining = 0;
+  for (int trial = 1; trial <= trials; ++trial)
+    for (const std::string& approach : approaches)
+      remaining += !folder.Done(trial, approach);
+  std::mt19937 random;
+  for (int trial = 1; trial <= trials; ++trial)
+  {
+    const Pose truth = DrawMisalignment(this->Settings.seed, trial, this->Settings.range, random);
+    std::vector<RegistrationView> views; // simulated once, for the first approach not yet done
+    for (const std::string& approach : approaches)
+    {
+      if (folder.Done(trial, approach))
+        continue;
+      if (views.empty())
+        views = this->XRays.Simulate(truth, random);
+      const TrialRecord record = this->Register(trial, approach, truth, views);
+      folder.Append(record);
+      ++registered;
+      if (progress)
+        progress(record, registered, remaining);
+    }
+  }
+}
+
+TrialRecord AccuracyEvaluation::Register(
+  int trial, const std::string& approach, const Pose& truth, const std::vector<RegistrationView>& views)
+{
+  StereoRegistrationSettings settings = this->Settings.registration;
+  settings.entropyMask = approach == "B";
+  const auto start = std::chrono::steady_clock::now();
+  this->Registration->RemoveAllXRaysAndROIs();
+  for (const RegistrationView& item : views)
+    this->Registration->AddXRayData(ImageFromRowsTopFirst(item.xray, item.view.Columns(), item.view.Rows()));
+  this->Registration->SetSettings(settings);
+  this->Registration->Update();
+  const StereoRegistrationResult& result = this->Registration->GetResult();
+  if (!result.failures.empty() && result.failures.front().code == GateCode::InvalidInput)
+  {
+    throw InputError("registration", result.failures.front().message);
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return MakeTrialRecord(trial, approach, this->Scenario, truth, result, this->Targets, this->RoomIsocenter,
+    this->Settings.successMTRE, seconds);
+}
+
+} // namespace xp
