@@ -104,6 +104,73 @@ void RunInParallel(const std::vector<std::function<void()>>& jobs)
   }
 }
 
+/** mask_NAME.png of every view from `directory` (none when empty), at the rendered size. */
+std::vector<vtkSmartPointer<vtkImageData>> ReadViewMasks(
+  const std::string& directory, const StereoGeometry& geometry, const std::pair<int, int>& size)
+{
+  std::vector<vtkSmartPointer<vtkImageData>> masks;
+  for (const XRayView& view : geometry.views)
+  {
+    if (directory.empty())
+    {
+      masks.emplace_back();
+      continue;
+    }
+    const XRayView out = size.first > 0 ? view.Resampled(size.first, size.second) : view;
+    const std::string path = directory + "/mask_" + view.name + ".png";
+    struct stat status;
+    if (stat(path.c_str(), &status) != 0)
+    {
+      throw InputError(path, "no mask for imager " + view.name + " (expected mask_NAME.png in --mask-dir)");
+    }
+    masks.push_back(ReadMaskPNG(path, out.Columns(), out.Rows()));
+  }
+  return masks;
+}
+
+/**
+ * Renders the views one after the other (each on all cores); their files are then encoded and
+ * written in parallel, as PNG compression runs on one core. The write jobs only read images
+ * made here: VTK objects are created and released on this thread alone.
+ */
+void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
+  const std::vector<vtkSmartPointer<vtkImageData>>& masks, StagedOutputDirectory& output)
+{
+  std::vector<vtkSmartPointer<vtkImageData>> images;
+  std::vector<std::function<void()>> writes;
+  for (size_t v = 0; v < geometry.views.size(); ++v)
+  {
+    const XRayView& view = geometry.views[v];
+    drr->SetView(view);
+    drr->SetInputData(1, masks[v]);
+    drr->Update();
+    if (drr->GetOutput(0)->GetNumberOfPoints() == 0)
+    {
+      throw Error("view " + view.name, "DRR rendering failed");
+    }
+    const XRayView rendered = drr->GetOutputView();
+    auto drr12Bit = vtkSmartPointer<vtkImageData>::New();
+    drr12Bit->DeepCopy(drr->GetOutput(0)); // the next view's Update reuses the filter's outputs
+    images.push_back(drr12Bit);
+    images.push_back(DisplayImage(drr->GetOutput(1), drr->GetOutput(2)));
+    images.push_back(Transmission(drr->GetOutput(1), drr->GetOutput(2)));
+    vtkImageData* made[3] = { images[images.size() - 3], images[images.size() - 2], images.back() };
+    const std::string stem = "drr_" + view.name;
+    writes.emplace_back([&output, stem, image = made[0]] { WritePNG(image, output.Path(stem + ".png")); });
+    writes.emplace_back([&output, stem, image = made[1]] { WritePNG(image, output.Path(stem + "_display.png")); });
+    writes.emplace_back([&output, stem, rendered, image = made[2]]
+      { WriteDetectorMetaImage(image, rendered, output.Path(stem + ".mha")); });
+    const double seconds = drr->GetLastRenderSeconds();
+    if (v == 0)
+    {
+      std::printf("attenuation volume prepared in %.3f s\n", drr->GetLastPreparationSeconds());
+    }
+    std::printf("view %s: %dx%d, %lld rays in %.3f s (%.2f M rays/s)\n", view.name.c_str(), rendered.Columns(),
+      rendered.Rows(), drr->GetNumberOfTracedRays(), seconds, drr->GetNumberOfTracedRays() / seconds / 1e6);
+  }
+  RunInParallel(writes);
+}
+
 } // namespace
 
 DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& geometryPath,
@@ -164,66 +231,14 @@ int RunDRR(const DRROptions& options)
   drr->SetOutputSize(size.first, size.second);
 
   // Masks are checked for every view before anything is rendered or written.
-  std::vector<vtkSmartPointer<vtkImageData>> masks;
-  for (const XRayView& view : setup.geometry.views)
-  {
-    if (options.maskDirectory.empty())
-    {
-      masks.emplace_back();
-      continue;
-    }
-    const XRayView out = size.first > 0 ? view.Resampled(size.first, size.second) : view;
-    const std::string path = options.maskDirectory + "/mask_" + view.name + ".png";
-    struct stat status;
-    if (stat(path.c_str(), &status) != 0)
-    {
-      throw InputError(path, "no mask for imager " + view.name + " (expected mask_NAME.png in --mask-dir)");
-    }
-    masks.push_back(ReadMaskPNG(path, out.Columns(), out.Rows()));
-  }
-
+  const std::vector<vtkSmartPointer<vtkImageData>> masks = ReadViewMasks(options.maskDirectory, setup.geometry, size);
   int dims[3];
   setup.ct.image->GetDimensions(dims);
   std::printf("CT %s: %d x %d x %d voxels, patient position %s; read in %.2f s\n", options.ct.c_str(), dims[0], dims[1],
     dims[2], setup.ct.patientPosition.c_str(), readSeconds);
   std::printf("misalignment: %s\n", pose.ToString().c_str());
-  // Views are rendered one after the other (each on all cores); their files are then encoded
-  // and written in parallel, as PNG compression runs on one core. The write jobs only read
-  // images made here: VTK objects are created and released on this thread alone.
   StagedOutputDirectory output(options.outputDirectory);
-  std::vector<vtkSmartPointer<vtkImageData>> images;
-  std::vector<std::function<void()>> writes;
-  for (size_t v = 0; v < setup.geometry.views.size(); ++v)
-  {
-    const XRayView& view = setup.geometry.views[v];
-    drr->SetView(view);
-    drr->SetInputData(1, masks[v]);
-    drr->Update();
-    if (drr->GetOutput(0)->GetNumberOfPoints() == 0)
-    {
-      throw Error("view " + view.name, "DRR rendering failed");
-    }
-    const XRayView rendered = drr->GetOutputView();
-    auto drr12Bit = vtkSmartPointer<vtkImageData>::New();
-    drr12Bit->DeepCopy(drr->GetOutput(0)); // the next view's Update reuses the filter's outputs
-    images.push_back(drr12Bit);
-    images.push_back(DisplayImage(drr->GetOutput(1), drr->GetOutput(2)));
-    images.push_back(Transmission(drr->GetOutput(1), drr->GetOutput(2)));
-    vtkImageData* made[3] = { images[images.size() - 3], images[images.size() - 2], images.back() };
-    const std::string stem = "drr_" + view.name;
-    writes.emplace_back([&output, stem, image = made[0]] { WritePNG(image, output.Path(stem + ".png")); });
-    writes.emplace_back([&output, stem, image = made[1]] { WritePNG(image, output.Path(stem + "_display.png")); });
-    writes.emplace_back([&output, stem, rendered, image = made[2]]
-      { WriteDetectorMetaImage(image, rendered, output.Path(stem + ".mha")); });
-    const double seconds = drr->GetLastRenderSeconds();
-    if (v == 0)
-    {
-      std::printf("attenuation volume prepared in %.3f s\n", drr->GetLastPreparationSeconds());
-    }
-    std::printf("view %s: %dx%d, %lld rays in %.3f s (%.2f M rays/s)\n", view.name.c_str(), rendered.Columns(),
-      rendered.Rows(), drr->GetNumberOfTracedRays(), seconds, drr->GetNumberOfTracedRays() / seconds / 1e6);
-  }
-  RunInParallel(writes);
+  RenderAndWriteViews(drr, setup.geometry, masks, output);
   output.Commit();
   std::printf("wrote drr_NAME.png (16-bit, 0..4095), drr_NAME_display.png (8-bit, log-windowed for viewing) and drr_NAME.mha "
               "(float transmission) to %s\n",

@@ -142,45 +142,12 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
   return inputs;
 }
 
-int RunRegister(const RegisterOptions& options)
+namespace
 {
-  const Clock::time_point start = Clock::now();
-  UseThreads(options.threads);
-  CheckRegistrationSettings(options.settings);
-  // Output folders are checked before the work, not after it: a registration whose result
-  // cannot be written must not run for seconds and then fail.
-  StagedOutputDirectory::CheckWritable(options.outputDirectory);
-  if (!options.reportDirectory.empty())
-  {
-    StagedOutputDirectory::CheckWritable(options.reportDirectory);
-  }
-  // --- read and check every input before any work ---
-  const RegistrationInputs inputs = LoadRegistrationInputs(options);
-  const DRRSetup& setup = inputs.setup;
-  const std::vector<RegistrationView>& views = inputs.views;
-  const double readSeconds = Since(start);
-  std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), views.size(),
-    views[0].view.Columns(), views[0].view.Rows(), readSeconds);
-  if (options.removeTable)
-    std::printf("table: %lld voxels outside the body set to air\n", inputs.tableVoxelsRemoved);
 
-  // --- the method: the registration filter (Modules/Registration) ---
-  vtkNew<vtkXPStereoRegistrationFilter> registration;
-  registration->SetCTData(setup.ct.image);
-  for (vtkImageData* xray : inputs.xrays)
-    registration->AddXRayData(xray);
-  for (vtkImageData* roi : inputs.rois)
-    registration->AddROIData(roi);
-  registration->SetGeometry(setup.geometry);
-  registration->SetPatientSetup(setup.patient);
-  registration->SetMuWater(options.muWater);
-  registration->SetShrinkFactor(inputs.shrinkFactor);
-  registration->SetSettings(options.settings);
-  const StageLogger logger(registration);
-  registration->Update();
-  const StereoRegistrationResult& result = registration->GetResult();
-  if (!result.failures.empty() && result.failures.front().code == GateCode::InvalidInput)
-    throw InputError("registration", result.failures.front().message);
+/** What the registration found at each stage, after the filter has run. */
+void PrintStages(const StereoRegistrationResult& result, const std::vector<RegistrationView>& views)
+{
   std::printf("pre-alignment: %s, %d iterations (%.2f s)\nmasks: valid fraction", result.prealignment.pose.ToString().c_str(),
     result.prealignment.iterations, result.prealignSeconds);
   for (size_t v = 0; v < views.size(); ++v)
@@ -194,24 +161,15 @@ int RunRegister(const RegisterOptions& options)
     std::printf("CT end faces, view %s: rays beyond the first slice %s (excess %.3f), beyond the last %s (excess %.3f)\n",
       views[v].view.name.c_str(), named(0), faces.excess[0], named(1), faces.excess[1]);
   }
-  std::printf("fine 6-DOF: %s, %d evaluations (%.2f s)\n", result.misalignment.ToString().c_str(),
-    result.evaluations, result.fineSeconds);
-  const bool ok = result.ok;
-  const std::vector<std::string> reasons = result.Reasons();
-  const Pose& correction = result.correction;
-  const double totalSeconds = Since(start);
+  std::printf("fine 6-DOF: %s, %d evaluations (%.2f s)\n", result.misalignment.ToString().c_str(), result.evaluations,
+    result.fineSeconds);
+}
 
-  // --- outputs ---
-  StagedOutputDirectory output(options.outputDirectory);
-  std::vector<std::string> viewNames;
-  for (const RegistrationView& item : views)
-    viewNames.push_back(item.view.name);
-  RegistrationRecord record = MakeRegistrationRecord(result, viewNames);
-  record.readSeconds = readSeconds;
-  record.totalSeconds = totalSeconds;
-  // What `xpose report` needs to rebuild the pictures: the inputs, with absolute paths.
+/** What `xpose report` needs to rebuild the pictures: the inputs, with absolute paths. */
+RegistrationRecordInputs RecordedInputs(const RegisterOptions& options)
+{
   const auto absolute = [](const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); };
-  RegistrationRecordInputs& in = record.inputs.emplace();
+  RegistrationRecordInputs in;
   in.ct = absolute(options.ct);
   in.series = options.series;
   in.geometry = absolute(options.geometry);
@@ -227,7 +185,15 @@ int RunRegister(const RegisterOptions& options)
   in.muWater = options.muWater;
   in.entropyMask = options.settings.entropyMask;
   in.removeTable = options.removeTable;
-  // The filter's outputs on the registration grid: DRRs, masks and entropy maps per view.
+  return in;
+}
+
+/** The filter's outputs on the registration grid (DRRs, masks, entropy maps per view), then
+ *  result.json, all in one staged folder that replaces an earlier run's. */
+void WriteOutputs(vtkXPStereoRegistrationFilter* registration, const RegistrationRecord& record,
+  const std::vector<RegistrationView>& views, const RegisterOptions& options)
+{
+  StagedOutputDirectory output(options.outputDirectory);
   for (size_t v = 0; v < views.size(); ++v)
   {
     const int port = 3 * static_cast<int>(v);
@@ -247,13 +213,67 @@ int RunRegister(const RegisterOptions& options)
   }
   output.ReplaceEarlier({ "drr_*.png", "mask_*.png", "entropy_*.png" });
   output.Commit();
+}
 
+void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)
+{
   std::printf("\n%s\nmisalignment: %s\ncorrection:   %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); apply the "
               "correction to the table only when status is ok)\nDRRs: %lld, evaluations: %d, total %.2f s; result.json in %s\n",
-    ok ? "status: ok" : "status: FAILED", result.misalignment.ToString().c_str(), correction.ToString().c_str(),
-    result.drrCount, result.evaluations, totalSeconds, options.outputDirectory.c_str());
-  for (const std::string& reason : reasons)
+    result.ok ? "status: ok" : "status: FAILED", result.misalignment.ToString().c_str(),
+    result.correction.ToString().c_str(), result.drrCount, result.evaluations, totalSeconds, outputDirectory.c_str());
+  for (const std::string& reason : result.Reasons())
     std::printf("  reason: %s\n", reason.c_str());
+}
+
+} // namespace
+
+int RunRegister(const RegisterOptions& options)
+{
+  const Clock::time_point start = Clock::now();
+  UseThreads(options.threads);
+  CheckRegistrationSettings(options.settings);
+  // Output folders are checked before the work, not after it: a registration whose result
+  // cannot be written must not run for seconds and then fail.
+  StagedOutputDirectory::CheckWritable(options.outputDirectory);
+  if (!options.reportDirectory.empty())
+    StagedOutputDirectory::CheckWritable(options.reportDirectory);
+  // Every input is read and checked before any work.
+  const RegistrationInputs inputs = LoadRegistrationInputs(options);
+  const DRRSetup& setup = inputs.setup;
+  const double readSeconds = Since(start);
+  std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), inputs.views.size(),
+    inputs.views[0].view.Columns(), inputs.views[0].view.Rows(), readSeconds);
+  if (options.removeTable)
+    std::printf("table: %lld voxels outside the body set to air\n", inputs.tableVoxelsRemoved);
+
+  // The method: the registration filter (Modules/Registration).
+  vtkNew<vtkXPStereoRegistrationFilter> registration;
+  registration->SetCTData(setup.ct.image);
+  for (vtkImageData* xray : inputs.xrays)
+    registration->AddXRayData(xray);
+  for (vtkImageData* roi : inputs.rois)
+    registration->AddROIData(roi);
+  registration->SetGeometry(setup.geometry);
+  registration->SetPatientSetup(setup.patient);
+  registration->SetMuWater(options.muWater);
+  registration->SetShrinkFactor(inputs.shrinkFactor);
+  registration->SetSettings(options.settings);
+  const StageLogger logger(registration);
+  registration->Update();
+  const StereoRegistrationResult& result = registration->GetResult();
+  if (!result.failures.empty() && result.failures.front().code == GateCode::InvalidInput)
+    throw InputError("registration", result.failures.front().message);
+  PrintStages(result, inputs.views);
+
+  std::vector<std::string> viewNames;
+  for (const RegistrationView& item : inputs.views)
+    viewNames.push_back(item.view.name);
+  RegistrationRecord record = MakeRegistrationRecord(result, viewNames);
+  record.readSeconds = readSeconds;
+  record.totalSeconds = Since(start);
+  record.inputs = RecordedInputs(options);
+  WriteOutputs(registration, record, inputs.views, options);
+  PrintResult(result, record.totalSeconds, options.outputDirectory);
   if (!options.reportDirectory.empty())
   {
     ReportOptions report;
@@ -261,7 +281,7 @@ int RunRegister(const RegisterOptions& options)
     report.outputDirectory = options.reportDirectory;
     RunReport(report);
   }
-  return ok ? ExitOk : ExitRegistrationFailed;
+  return result.ok ? ExitOk : ExitRegistrationFailed;
 }
 
 } // namespace xp

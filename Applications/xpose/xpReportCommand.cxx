@@ -1,17 +1,19 @@
 #include "xpCommands.h"
 #include "xpRegistrationInputs.h"
 
-#include "xpEntropyMask.h"
 #include "xpError.h"
 #include "xpImageIO.h"
 #include "xpImageRows.h"
 #include "xpRegistrationRecord.h"
 #include "xpReport.h"
+#include "xpReportContent.h"
 #include "xpRoomScene.h"
+#include "xpVirtualDisplay.h"
 
 #include <vtkImageData.h>
 
 #include <cstdio>
+#include <memory>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -22,27 +24,9 @@ namespace xp
 namespace
 {
 
-/** The whole-image 12-bit DRR of `view` at `misalignment`. */
-std::vector<uint16_t> RenderDRR(vtkXPDRRFilter* filter, const XRayView& view, const Pose& misalignment)
+/** The recorded inputs as `register` options, each X-ray checked to be the one registered. */
+RegisterOptions RecordedOptions(const RegistrationRecordInputs& recorded, const std::string& recordPath)
 {
-  filter->SetView(view);
-  filter->SetMisalignment(misalignment);
-  filter->Update();
-  return RowsTopFirst<uint16_t>(filter->GetOutput(0));
-}
-
-} // namespace
-
-int RunReport(const ReportOptions& options)
-{
-  const RegistrationRecord result = ReadRegistrationRecord(options.result);
-  if (!result.inputs)
-    throw InputError(options.result, "field 'inputs' is missing: the report needs the files xpose register read");
-  const RegistrationRecordInputs& recorded = *result.inputs;
-  const std::string resultFolder = std::filesystem::path(options.result).parent_path().string();
-  const std::string directory =
-    options.outputDirectory.empty() ? (resultFolder.empty() ? std::string("report") : resultFolder + "/report") : options.outputDirectory;
-
   RegisterOptions inputsOf;
   inputsOf.ct = recorded.ct;
   inputsOf.series = recorded.series;
@@ -57,58 +41,61 @@ int RunReport(const ReportOptions& options)
   {
     if (FileMD5(inputsOf.xrays[v]) != recorded.xrayMD5[v])
       throw InputError(inputsOf.xrays[v], "differs from the X-ray that was registered (MD5 " + recorded.xrayMD5[v] +
-          " in " + options.result + "): the report would show other images than the result is based on");
+          " in " + recordPath + "): the report would show other images than the result is based on");
   }
-  RegistrationInputs inputs = LoadRegistrationInputs(inputsOf);
+  return inputsOf;
+}
 
-  ReportContent content;
-  content.ok = result.ok;
-  content.reasons = result.Reasons();
-  content.misalignment = result.misalignment;
-  content.correction = result.correction;
-  content.convention = CorrectionConvention;
-  content.objective = result.objective;
-  content.drrCount = result.drrCount;
-  content.evaluations = result.evaluations;
-  content.seconds = { { "read", result.readSeconds }, { "prealign", result.prealignSeconds }, { "mask", result.maskSeconds },
-    { "fine", result.fineSeconds }, { "total", result.totalSeconds } };
-  content.trace = result.objectiveTrace;
-  for (const RegistrationStage& stage : result.stages)
-    content.stages.emplace_back(stage.name, stage.firstEvaluation);
-  content.title = "CT " + inputsOf.ct + "; X-rays";
-  for (const std::string& xray : inputsOf.xrays)
-    content.title += " " + xray;
-
-  vtkXPDRRFilter* drr = inputs.setup.filter;
-  for (size_t index = 0; index < inputs.views.size(); ++index)
+/**
+ * The 3D room scene, rendered on the current X display or on an Xvfb started for it (the
+ * command owns the display, not the report); without either, the report says why.
+ */
+void RenderRoom(const RegistrationInputs& inputs, ReportContent& content)
+{
+  std::string reason;
+  const std::unique_ptr<VirtualDisplay> display = VirtualDisplay::Ensure(reason);
+  if (!display)
   {
-    const RegistrationView& item = inputs.views[index];
-    const XRayView& view = item.view;
-    ReportView v;
-    v.name = view.name;
-    v.columns = view.Columns();
-    v.rows = view.Rows();
-    v.xray = item.xray;
-    v.roi = item.mask;
-    v.mask = RowsTopFirst<uint8_t>(ReadMaskPNG(resultFolder + "/mask_" + view.name + ".png", v.columns, v.rows));
-    if (recorded.entropyMask) // the same computation as the registration's, from the same X-ray and ROI
-      v.entropy = ComputeEntropyMask(v.xray.data(), v.columns, v.rows, v.roi.empty() ? nullptr : v.roi.data()).entropy;
-    v.drrStart = RenderDRR(drr, view, Pose{});
-    v.drrFinal = RenderDRR(drr, view, content.misalignment);
-    if (index >= result.viewNames.size() || result.viewNames[index] != view.name)
-      throw InputError(options.result, "field 'views' does not list imager " + view.name + " of " + recorded.geometry);
-    v.similarity = result.similarity[index];
-    v.explained = result.explained[index];
-    v.validFraction = result.validFraction[index];
-    content.views.push_back(std::move(v));
+    content.roomNote = "the 3D scene was not rendered: " + reason;
+    std::fprintf(stderr, "xpose report: warning: %s\n", content.roomNote.c_str());
+    return;
   }
-
   RoomScene scene(inputs.setup.geometry);
   scene.SetCT(inputs.setup.ct.image, inputs.planned);
   scene.SetMisalignment(content.misalignment);
-  const std::string warning = WriteReport(content, &scene, directory);
-  if (!warning.empty())
-    std::fprintf(stderr, "xpose report: warning: %s\n", warning.c_str());
+  content.room = scene.Render(1200, 600);
+}
+
+} // namespace
+
+int RunReport(const ReportOptions& options)
+{
+  const RegistrationRecord result = ReadRegistrationRecord(options.result);
+  if (!result.inputs)
+    throw InputError(options.result, "field 'inputs' is missing: the report needs the files xpose register read");
+  const RegistrationRecordInputs& recorded = *result.inputs;
+  const std::string resultFolder = std::filesystem::path(options.result).parent_path().string();
+  const std::string directory =
+    options.outputDirectory.empty() ? (resultFolder.empty() ? std::string("report") : resultFolder + "/report") : options.outputDirectory;
+  const RegisterOptions inputsOf = RecordedOptions(recorded, options.result);
+  const RegistrationInputs inputs = LoadRegistrationInputs(inputsOf);
+
+  std::string title = "CT " + inputsOf.ct + "; X-rays";
+  for (const std::string& xray : inputsOf.xrays)
+    title += " " + xray;
+  ReportContent content = ReportContentOf(result, title);
+  for (size_t index = 0; index < inputs.views.size(); ++index)
+  {
+    const XRayView& view = inputs.views[index].view;
+    if (index >= result.viewNames.size() || result.viewNames[index] != view.name)
+      throw InputError(options.result, "field 'views' does not list imager " + view.name + " of " + recorded.geometry);
+    std::vector<uint8_t> mask =
+      RowsTopFirst<uint8_t>(ReadMaskPNG(resultFolder + "/mask_" + view.name + ".png", view.Columns(), view.Rows()));
+    content.views.push_back(
+      ReportViewOf(result, index, inputs.views[index], std::move(mask), recorded.entropyMask, inputs.setup.filter));
+  }
+  RenderRoom(inputs, content);
+  WriteReport(content, directory);
   std::printf("report: %s/index.html and %s/summary.png\n", directory.c_str(), directory.c_str());
   return ExitOk;
 }

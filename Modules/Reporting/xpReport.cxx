@@ -3,8 +3,6 @@
 #include "xpCanvas.h"
 #include "xpImageIO.h"
 #include "xpPlot.h"
-#include "xpRoomScene.h"
-#include "xpVirtualDisplay.h"
 
 #include <opencv2/imgproc.hpp>
 
@@ -108,10 +106,9 @@ void Save(const cv::Mat& image, StagedOutputDirectory& output, const std::string
 
 } // namespace
 
-std::string WriteReport(const ReportContent& content, const RoomScene* scene, const std::string& directory)
+void WriteReport(const ReportContent& content, const std::string& directory)
 {
   StagedOutputDirectory output(directory);
-  std::string warning;
 
   // Convergence: the objective at every 6-DOF evaluation, stages marked.
   Plot plot("Convergence of the 6-DOF search", "evaluation", "objective MI_A^2 + MI_B^2");
@@ -125,19 +122,10 @@ std::string WriteReport(const ReportContent& content, const RoomScene* scene, co
   Save(convergence, output, "convergence.png");
 
   cv::Mat room;
-  if (scene)
+  if (content.room)
   {
-    std::string reason;
-    const std::unique_ptr<VirtualDisplay> display = VirtualDisplay::Ensure(reason);
-    if (display)
-    {
-      room = canvas::FromVTK(scene->Render(1200, 600));
-      Save(room, output, "scene3d.png");
-    }
-    else
-    {
-      warning = "the 3D scene was not rendered: " + reason;
-    }
+    room = canvas::FromVTK(content.room);
+    Save(room, output, "scene3d.png");
   }
 
   std::ostringstream html;
@@ -197,7 +185,7 @@ std::string WriteReport(const ReportContent& content, const RoomScene* scene, co
     html << "<figure class=\"wide\"><img src=\"scene3d.png\" alt=\"3D room scene\"><figcaption>Sources, panels, central rays, "
          << "the isocentre and the CT bone at the planned pose (translucent) and at the estimated pose.</figcaption></figure>\n";
   else
-    html << "<p>" << Html(warning.empty() ? "no 3D scene was asked for" : warning) << "</p>\n";
+    html << "<p>" << Html(content.roomNote) << "</p>\n";
   html << "<p><small>Written by xpose.</small></p>\n</body></html>\n";
   std::ofstream(output.Path("index.html")) << html.str();
 
@@ -244,7 +232,6 @@ std::string WriteReport(const ReportContent& content, const RoomScene* scene, co
   }
   Save(summary, output, "summary.png");
   output.Commit();
-  return warning;
 }
 
 } // namespace xp

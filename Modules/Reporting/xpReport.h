@@ -10,6 +10,9 @@
 
 #include "xpPose.h"
 
+#include <vtkImageData.h>
+#include <vtkSmartPointer.h>
+
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -17,7 +20,6 @@
 
 namespace xp
 {
-class RoomScene;
 
 /** One view, all images row 0 first at the registration resolution. */
 struct ReportView
@@ -49,14 +51,14 @@ struct ReportContent
   std::vector<ReportView> views;
   std::vector<double> trace;                          ///< objective per 6-DOF evaluation
   std::vector<std::pair<std::string, int>> stages;    ///< stage name, first evaluation
+  /** The 3D room scene (xpRoomScene.h) as rendered by the caller, who owns the display it
+   *  needs; null when there is none, and `roomNote` says why. */
+  vtkSmartPointer<vtkImageData> room;
+  std::string roomNote = "no 3D scene was asked for";
 };
 
-/**
- * Writes the report into `directory` (created; files replaced; nothing half-written). `scene`
- * (may be null) is rendered on the current X display or on an Xvfb started for it; when neither
- * works, the report is written without it and the returned warning says why (empty otherwise).
- */
-VTKXPREPORTING_EXPORT std::string WriteReport(const ReportContent& content, const RoomScene* scene, const std::string& directory);
+/** Writes the report into `directory` (created; files replaced; nothing half-written). */
+VTKXPREPORTING_EXPORT void WriteReport(const ReportContent& content, const std::string& directory);
 
 } // namespace xp
 
