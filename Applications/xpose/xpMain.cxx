@@ -36,6 +36,173 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
     ->capture_default_str();
 }
 
+CLI::App* AddPhantomCommand(CLI::App& app, xp::PhantomOptions& options)
+{
+  CLI::App* phantomCommand = app.add_subcommand("phantom", "Write the built-in head phantom as a DICOM CT series");
+  phantomCommand->add_option("--out", options.outputDirectory, "Output folder (new or empty)")->required();
+  phantomCommand->add_option("--spacing", options.spacing, "Voxel size in mm")->capture_default_str();
+  return phantomCommand;
+}
+
+CLI::App* AddGeometryCommand(CLI::App& app, xp::GeometryOptions& options)
+{
+  CLI::App* geometryCommand = app.add_subcommand("geometry", "Write a geometry file from the imagers' 3x4 projection matrices or pinhole calibrations");
+  geometryCommand->add_option("--projection-matrix", options.projectionMatrices,
+    "One text file per imager: 3 rows of 4 numbers, Room mm to (col, row) pixel-centre indices, row 0 at the top");
+  geometryCommand->add_option("--intrinsics", options.intrinsics, "Or pinhole calibrations: K per imager (3 rows of 3, pixels)");
+  geometryCommand->add_option("--extrinsics", options.extrinsics, "with [R | t] per imager (3 rows of 4, Room mm to camera)");
+  geometryCommand->add_option("--names", options.names, "The imagers' names (default A, B, ...)")->delimiter(',');
+  geometryCommand->add_option("--pixel-spacing", options.pixelSpacing, "Detector pixel spacing, MM or COLUMN_MM,ROW_MM")
+    ->required();
+  geometryCommand->add_option("--size", options.size, "Detector COLSxROWS")->required();
+  geometryCommand->add_option("--isocenter", options.isocenter, "Room isocentre x,y,z (mm)")->capture_default_str();
+  geometryCommand->add_option("--out", options.output, "The geometry JSON to write")->required();
+  return geometryCommand;
+}
+
+CLI::App* AddDRRCommand(CLI::App& app, xp::DRROptions& options)
+{
+  CLI::App* drrCommand = app.add_subcommand("drr", "Render a DRR per imager of the geometry");
+  drrCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  drrCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  drrCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON (GEOMETRY.md)")->required();
+  drrCommand->add_option("--size", options.size, "Output COLSxROWS on the same panel (default: the panel's)");
+  drrCommand->add_option("--pose", options.pose, "Patient misalignment tx,ty,tz,pitch,roll,yaw (mm, degrees, room)")
+    ->capture_default_str();
+  drrCommand->add_option("--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre (default: CT centre)");
+  drrCommand->add_option("--mask-dir", options.maskDirectory, "Folder with mask_NAME.png per imager (non-zero = render)");
+  drrCommand->add_option("--method", options.method, "trilinear or siddon")->capture_default_str();
+  drrCommand->add_option("--step", options.stepSize, "Trilinear sampling step in mm (0: smallest voxel spacing)")
+    ->capture_default_str();
+  drrCommand->add_option("--mu-water", options.muWater, "Attenuation of water, 1/mm")->capture_default_str();
+  drrCommand->add_option("--threads", options.threads, "Threads (0: all cores)")->capture_default_str();
+  drrCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
+  return drrCommand;
+}
+
+CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options)
+{
+  CLI::App* benchCommand = app.add_subcommand("bench", "Measure and print performance figures");
+  benchCommand->require_subcommand(1);
+  CLI::App* benchDRR = benchCommand->add_subcommand("drr", "DRR rays per second: sizes, threads, masks");
+  benchDRR->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  benchDRR->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  benchDRR->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
+  benchDRR->add_option("--sizes", options.sizes, "Output sizes COLSxROWS")->capture_default_str();
+  benchDRR->add_option("--mask-size", options.maskSize, "Size for the masked runs")->capture_default_str();
+  benchDRR->add_option("--valid", options.validFractions, "Valid fractions for the masked runs")->capture_default_str();
+  benchDRR->add_option("--methods", options.methods, "Ray casting methods of the unmasked table")
+    ->check(CLI::IsMember({ "trilinear", "siddon" }))
+    ->capture_default_str();
+  benchDRR->add_option("--repetitions", options.repetitions, "Runs per figure (the median is printed)")
+    ->capture_default_str();
+  return benchCommand;
+}
+
+CLI::App* AddMaskCommand(CLI::App& app, xp::MaskOptions& options)
+{
+  CLI::App* maskCommand = app.add_subcommand("mask", "Block-entropy validity mask of an X-ray (METHOD.md section 3)");
+  maskCommand->add_option("--xray", options.xray, "X-ray: 16-bit PNG with 12-bit values")->required();
+  maskCommand->add_option("--roi", options.roi, "User ROI PNG of the same size (non-zero = allowed)");
+  maskCommand->add_option("--window", options.window, "Block size at half resolution")->capture_default_str();
+  maskCommand->add_option("--bin-width", options.binWidth, "Grey levels per bin")->capture_default_str();
+  maskCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
+  return maskCommand;
+}
+
+CLI::App* AddSimulateCommand(CLI::App& app, xp::SimulateOptions& options)
+{
+  CLI::App* simulateCommand = app.add_subcommand("simulate", "Simulate the stereo X-rays of a misaligned patient");
+  simulateCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  simulateCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  simulateCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
+  simulateCommand->add_option("--pose", options.pose, "True misalignment tx,ty,tz,pitch,roll,yaw")->required();
+  simulateCommand->add_option("--size", options.size, "Output COLSxROWS on the same panel");
+  simulateCommand->add_option("--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  simulateCommand->add_option("--noise", options.noise, "Quantum noise sd in grey levels at full transmission");
+  simulateCommand->add_flag("--kv-contrast", options.kvContrast, "Bone attenuates more than in the DRR model");
+  simulateCommand->add_flag("--add-objects", options.addObjects, "Add a couch rail and a frame only the X-ray shows");
+  simulateCommand->add_option("--preset", options.preset,
+    "model: the DRR's own image model; clinical: the physics simulator, every effect on")->capture_default_str();
+  simulateCommand->add_option("--without", options.without,
+    "Clinical effects to switch off: spectrum, pixel-area, table, couch, scatter, blur, quantum-noise, "
+    "electronic-noise, heel, log")->delimiter(',');
+  simulateCommand->add_option("--seed", options.seed, "Noise seed")->capture_default_str();
+  simulateCommand->add_option("--threads", options.threads, "Threads (0: all cores)");
+  simulateCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
+  return simulateCommand;
+}
+
+CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
+{
+  CLI::App* registerCommand = app.add_subcommand("register", "Find the patient's 6-DOF misalignment from the stereo X-rays");
+  registerCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  registerCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  registerCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
+  registerCommand->add_option("--xray", options.xrays, "X-ray PNG (12-bit), one per imager in order")->required();
+  registerCommand->add_option("--roi", options.rois, "User ROI PNG per X-ray (non-zero = use)");
+  registerCommand->add_flag("!--no-entropy-mask", options.settings.entropyMask, "Register the whole image (no entropy mask)");
+  registerCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
+  registerCommand->add_option("--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  registerCommand->add_flag("--remove-table", options.removeTable,
+    "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
+  AddMethodOptions(registerCommand, options.settings);
+  registerCommand->add_option("--max-translation", options.settings.maxTranslation, "Gate: largest accepted correction, mm")
+    ->capture_default_str();
+  registerCommand->add_option("--max-rotation", options.settings.maxRotation, "Gate: largest accepted correction, degrees")
+    ->capture_default_str();
+  AddGateOptions(registerCommand, options.settings);
+  registerCommand->add_option("--threads", options.threads, "Threads (0: all cores)");
+  registerCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
+  registerCommand->add_option("--report", options.reportDirectory, "Also write the visual report (index.html, summary.png) here");
+  return registerCommand;
+}
+
+CLI::App* AddReportCommand(CLI::App& app, xp::ReportOptions& options)
+{
+  CLI::App* reportCommand = app.add_subcommand("report", "Rebuild the visual report of a finished registration");
+  reportCommand->add_option("--result", options.result, "result.json written by xpose register")->required();
+  reportCommand->add_option("--out-dir", options.outputDirectory, "Report folder (default: report/ beside result.json)");
+  return reportCommand;
+}
+
+CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
+{
+  CLI::App* evaluateCommand = app.add_subcommand("evaluate",
+    "Register many simulated misalignments with and without entropy masks (A: whole image, B: masks)");
+  evaluateCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  evaluateCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  evaluateCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
+  evaluateCommand->add_option("--trials", options.trials, "Misalignments drawn")->capture_default_str();
+  evaluateCommand->add_option("--min-translation", options.minTranslation, "Smallest initial translation error, mm")
+    ->capture_default_str();
+  evaluateCommand->add_option("--max-translation", options.maxTranslation, "Largest initial translation error, mm")
+    ->capture_default_str();
+  evaluateCommand->add_option("--max-rotation", options.maxRotation, "Largest initial error per angle, degrees")
+    ->capture_default_str();
+  evaluateCommand->add_option("--seed", options.seed, "Seed of the trials and the noise")->capture_default_str();
+  evaluateCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
+  evaluateCommand->add_option("--scenario", options.scenario,
+    "clean, noisy, objects, truncated (the DRR model's X-rays) or clinical (the physics simulator)")->capture_default_str();
+  evaluateCommand->add_option("--without", options.without,
+    "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
+  evaluateCommand->add_flag("!--keep-table", options.removeTable, "Register against the CT with its table");
+  evaluateCommand->add_option("--registration-off", options.registrationOff,
+    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage")
+    ->delimiter(',');
+  AddMethodOptions(evaluateCommand, options.settings);
+  AddGateOptions(evaluateCommand, options.settings);
+  evaluateCommand->add_option("--approaches", options.approaches, "A (whole image) and/or B (entropy masks)")
+    ->capture_default_str();
+  evaluateCommand->add_option("--noise", options.noise, "Quantum noise of the noisy scenarios")->capture_default_str();
+  evaluateCommand->add_option("--success-mtre", options.successMTRE, "Success: final mTRE below this, mm")
+    ->capture_default_str();
+  evaluateCommand->add_option("--threads", options.threads, "Threads (0: all cores)");
+  evaluateCommand->add_option("--out-dir", options.outputDirectory,
+    "Output folder; an interrupted evaluation resumes in it with the same options")->required();
+  return evaluateCommand;
+}
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -45,145 +212,23 @@ int main(int argc, char** argv)
   app.require_subcommand(1);
 
   xp::PhantomOptions phantom;
-  CLI::App* phantomCommand = app.add_subcommand("phantom", "Write the built-in head phantom as a DICOM CT series");
-  phantomCommand->add_option("--out", phantom.outputDirectory, "Output folder (new or empty)")->required();
-  phantomCommand->add_option("--spacing", phantom.spacing, "Voxel size in mm")->capture_default_str();
-
+  CLI::App* phantomCommand = AddPhantomCommand(app, phantom);
   xp::GeometryOptions geometry;
-  CLI::App* geometryCommand = app.add_subcommand("geometry", "Write a geometry file from the imagers' 3x4 projection matrices or pinhole calibrations");
-  geometryCommand->add_option("--projection-matrix", geometry.projectionMatrices,
-    "One text file per imager: 3 rows of 4 numbers, Room mm to (col, row) pixel-centre indices, row 0 at the top");
-  geometryCommand->add_option("--intrinsics", geometry.intrinsics, "Or pinhole calibrations: K per imager (3 rows of 3, pixels)");
-  geometryCommand->add_option("--extrinsics", geometry.extrinsics, "with [R | t] per imager (3 rows of 4, Room mm to camera)");
-  geometryCommand->add_option("--names", geometry.names, "The imagers' names (default A, B, ...)")->delimiter(',');
-  geometryCommand->add_option("--pixel-spacing", geometry.pixelSpacing, "Detector pixel spacing, MM or COLUMN_MM,ROW_MM")
-    ->required();
-  geometryCommand->add_option("--size", geometry.size, "Detector COLSxROWS")->required();
-  geometryCommand->add_option("--isocenter", geometry.isocenter, "Room isocentre x,y,z (mm)")->capture_default_str();
-  geometryCommand->add_option("--out", geometry.output, "The geometry JSON to write")->required();
-
+  CLI::App* geometryCommand = AddGeometryCommand(app, geometry);
   xp::DRROptions drr;
-  CLI::App* drrCommand = app.add_subcommand("drr", "Render a DRR per imager of the geometry");
-  drrCommand->add_option("--ct", drr.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
-  drrCommand->add_option("--series", drr.series, "Series Instance UID when the folder holds several");
-  drrCommand->add_option("--geometry", drr.geometry, "Stereo geometry JSON (GEOMETRY.md)")->required();
-  drrCommand->add_option("--size", drr.size, "Output COLSxROWS on the same panel (default: the panel's)");
-  drrCommand->add_option("--pose", drr.pose, "Patient misalignment tx,ty,tz,pitch,roll,yaw (mm, degrees, room)")
-    ->capture_default_str();
-  drrCommand->add_option("--iso-ct", drr.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre (default: CT centre)");
-  drrCommand->add_option("--mask-dir", drr.maskDirectory, "Folder with mask_NAME.png per imager (non-zero = render)");
-  drrCommand->add_option("--method", drr.method, "trilinear or siddon")->capture_default_str();
-  drrCommand->add_option("--step", drr.stepSize, "Trilinear sampling step in mm (0: smallest voxel spacing)")
-    ->capture_default_str();
-  drrCommand->add_option("--mu-water", drr.muWater, "Attenuation of water, 1/mm")->capture_default_str();
-  drrCommand->add_option("--threads", drr.threads, "Threads (0: all cores)")->capture_default_str();
-  drrCommand->add_option("--out-dir", drr.outputDirectory, "Output folder")->required();
-
+  CLI::App* drrCommand = AddDRRCommand(app, drr);
   xp::BenchOptions bench;
-  CLI::App* benchCommand = app.add_subcommand("bench", "Measure and print performance figures");
-  benchCommand->require_subcommand(1);
-  CLI::App* benchDRR = benchCommand->add_subcommand("drr", "DRR rays per second: sizes, threads, masks");
-  benchDRR->add_option("--ct", bench.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
-  benchDRR->add_option("--series", bench.series, "Series Instance UID when the folder holds several");
-  benchDRR->add_option("--geometry", bench.geometry, "Stereo geometry JSON")->required();
-  benchDRR->add_option("--sizes", bench.sizes, "Output sizes COLSxROWS")->capture_default_str();
-  benchDRR->add_option("--mask-size", bench.maskSize, "Size for the masked runs")->capture_default_str();
-  benchDRR->add_option("--valid", bench.validFractions, "Valid fractions for the masked runs")->capture_default_str();
-  benchDRR->add_option("--methods", bench.methods, "Ray casting methods of the unmasked table")
-    ->check(CLI::IsMember({ "trilinear", "siddon" }))
-    ->capture_default_str();
-  benchDRR->add_option("--repetitions", bench.repetitions, "Runs per figure (the median is printed)")
-    ->capture_default_str();
-
+  AddBenchCommand(app, bench); // its one subcommand, drr, is what runs when no other command does
   xp::MaskOptions mask;
-  CLI::App* maskCommand = app.add_subcommand("mask", "Block-entropy validity mask of an X-ray (METHOD.md section 3)");
-  maskCommand->add_option("--xray", mask.xray, "X-ray: 16-bit PNG with 12-bit values")->required();
-  maskCommand->add_option("--roi", mask.roi, "User ROI PNG of the same size (non-zero = allowed)");
-  maskCommand->add_option("--window", mask.window, "Block size at half resolution")->capture_default_str();
-  maskCommand->add_option("--bin-width", mask.binWidth, "Grey levels per bin")->capture_default_str();
-  maskCommand->add_option("--out-dir", mask.outputDirectory, "Output folder")->required();
-
+  CLI::App* maskCommand = AddMaskCommand(app, mask);
   xp::SimulateOptions simulate;
-  CLI::App* simulateCommand = app.add_subcommand("simulate", "Simulate the stereo X-rays of a misaligned patient");
-  simulateCommand->add_option("--ct", simulate.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
-  simulateCommand->add_option("--series", simulate.series, "Series Instance UID when the folder holds several");
-  simulateCommand->add_option("--geometry", simulate.geometry, "Stereo geometry JSON")->required();
-  simulateCommand->add_option("--pose", simulate.pose, "True misalignment tx,ty,tz,pitch,roll,yaw")->required();
-  simulateCommand->add_option("--size", simulate.size, "Output COLSxROWS on the same panel");
-  simulateCommand->add_option("--iso-ct", simulate.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
-  simulateCommand->add_option("--noise", simulate.noise, "Quantum noise sd in grey levels at full transmission");
-  simulateCommand->add_flag("--kv-contrast", simulate.kvContrast, "Bone attenuates more than in the DRR model");
-  simulateCommand->add_flag("--add-objects", simulate.addObjects, "Add a couch rail and a frame only the X-ray shows");
-  simulateCommand->add_option("--preset", simulate.preset,
-    "model: the DRR's own image model; clinical: the physics simulator, every effect on")->capture_default_str();
-  simulateCommand->add_option("--without", simulate.without,
-    "Clinical effects to switch off: spectrum, pixel-area, table, couch, scatter, blur, quantum-noise, "
-    "electronic-noise, heel, log")->delimiter(',');
-  simulateCommand->add_option("--seed", simulate.seed, "Noise seed")->capture_default_str();
-  simulateCommand->add_option("--threads", simulate.threads, "Threads (0: all cores)");
-  simulateCommand->add_option("--out-dir", simulate.outputDirectory, "Output folder")->required();
-
+  CLI::App* simulateCommand = AddSimulateCommand(app, simulate);
   xp::RegisterOptions reg;
-  CLI::App* registerCommand = app.add_subcommand("register", "Find the patient's 6-DOF misalignment from the stereo X-rays");
-  registerCommand->add_option("--ct", reg.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
-  registerCommand->add_option("--series", reg.series, "Series Instance UID when the folder holds several");
-  registerCommand->add_option("--geometry", reg.geometry, "Stereo geometry JSON")->required();
-  registerCommand->add_option("--xray", reg.xrays, "X-ray PNG (12-bit), one per imager in order")->required();
-  registerCommand->add_option("--roi", reg.rois, "User ROI PNG per X-ray (non-zero = use)");
-  registerCommand->add_flag("!--no-entropy-mask", reg.settings.entropyMask, "Register the whole image (no entropy mask)");
-  registerCommand->add_option("--size", reg.size, "Registration resolution COLSxROWS (divides the panel)");
-  registerCommand->add_option("--iso-ct", reg.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
-  registerCommand->add_flag("--remove-table", reg.removeTable,
-    "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
-  AddMethodOptions(registerCommand, reg.settings);
-  registerCommand->add_option("--max-translation", reg.settings.maxTranslation, "Gate: largest accepted correction, mm")
-    ->capture_default_str();
-  registerCommand->add_option("--max-rotation", reg.settings.maxRotation, "Gate: largest accepted correction, degrees")
-    ->capture_default_str();
-  AddGateOptions(registerCommand, reg.settings);
-  registerCommand->add_option("--threads", reg.threads, "Threads (0: all cores)");
-  registerCommand->add_option("--out-dir", reg.outputDirectory, "Output folder")->required();
-  registerCommand->add_option("--report", reg.reportDirectory, "Also write the visual report (index.html, summary.png) here");
-
+  CLI::App* registerCommand = AddRegisterCommand(app, reg);
   xp::ReportOptions report;
-  CLI::App* reportCommand = app.add_subcommand("report", "Rebuild the visual report of a finished registration");
-  reportCommand->add_option("--result", report.result, "result.json written by xpose register")->required();
-  reportCommand->add_option("--out-dir", report.outputDirectory, "Report folder (default: report/ beside result.json)");
-
+  CLI::App* reportCommand = AddReportCommand(app, report);
   xp::EvaluateOptions evaluate;
-  CLI::App* evaluateCommand = app.add_subcommand("evaluate",
-    "Register many simulated misalignments with and without entropy masks (A: whole image, B: masks)");
-  evaluateCommand->add_option("--ct", evaluate.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
-  evaluateCommand->add_option("--series", evaluate.series, "Series Instance UID when the folder holds several");
-  evaluateCommand->add_option("--geometry", evaluate.geometry, "Stereo geometry JSON")->required();
-  evaluateCommand->add_option("--trials", evaluate.trials, "Misalignments drawn")->capture_default_str();
-  evaluateCommand->add_option("--min-translation", evaluate.minTranslation, "Smallest initial translation error, mm")
-    ->capture_default_str();
-  evaluateCommand->add_option("--max-translation", evaluate.maxTranslation, "Largest initial translation error, mm")
-    ->capture_default_str();
-  evaluateCommand->add_option("--max-rotation", evaluate.maxRotation, "Largest initial error per angle, degrees")
-    ->capture_default_str();
-  evaluateCommand->add_option("--seed", evaluate.seed, "Seed of the trials and the noise")->capture_default_str();
-  evaluateCommand->add_option("--size", evaluate.size, "Registration resolution COLSxROWS (divides the panel)");
-  evaluateCommand->add_option("--scenario", evaluate.scenario,
-    "clean, noisy, objects, truncated (the DRR model's X-rays) or clinical (the physics simulator)")->capture_default_str();
-  evaluateCommand->add_option("--without", evaluate.without,
-    "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
-  evaluateCommand->add_flag("!--keep-table", evaluate.removeTable, "Register against the CT with its table");
-  evaluateCommand->add_option("--registration-off", evaluate.registrationOff,
-    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage")
-    ->delimiter(',');
-  AddMethodOptions(evaluateCommand, evaluate.settings);
-  AddGateOptions(evaluateCommand, evaluate.settings);
-  evaluateCommand->add_option("--approaches", evaluate.approaches, "A (whole image) and/or B (entropy masks)")
-    ->capture_default_str();
-  evaluateCommand->add_option("--noise", evaluate.noise, "Quantum noise of the noisy scenarios")->capture_default_str();
-  evaluateCommand->add_option("--success-mtre", evaluate.successMTRE, "Success: final mTRE below this, mm")
-    ->capture_default_str();
-  evaluateCommand->add_option("--threads", evaluate.threads, "Threads (0: all cores)");
-  evaluateCommand->add_option("--out-dir", evaluate.outputDirectory,
-    "Output folder; an interrupted evaluation resumes in it with the same options")->required();
-
+  CLI::App* evaluateCommand = AddEvaluateCommand(app, evaluate);
   try
   {
     app.parse(argc, argv);

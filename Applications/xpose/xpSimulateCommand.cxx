@@ -20,6 +20,45 @@
 namespace xp
 {
 
+namespace
+{
+
+/** The simulator of --preset, ready to render the X-ray of a view at `pose`. */
+struct XRaySource
+{
+  std::function<std::vector<uint16_t>(const XRayView&, std::mt19937&)> render;
+  std::string model; ///< the simulator's settings, as JSON (truth.json's "model")
+};
+
+XRaySource MakeXRaySource(const SimulateOptions& options, vtkImageData* ct, const PatientSetup& patient,
+  const Eigen::Vector3d& roomIsocenter, const Pose& pose)
+{
+  XRaySource source;
+  if (options.preset == "clinical")
+  {
+    XRayPhysicsSettings settings = XRayPhysicsSettings::Clinical();
+    for (const std::string& effect : options.without)
+      SwitchOff(settings, effect, "--without");
+    auto physics = std::make_shared<XRayPhysicsSimulator>(ct, patient.PlannedCTToRoom(ImageCenter(ct)), roomIsocenter, settings);
+    source.render = [physics, pose](const XRayView& view, std::mt19937& random) { return physics->Simulate(view, pose, random); };
+    source.model = settings.Describe();
+    return source;
+  }
+  XRaySimulation simulation;
+  simulation.noise = options.noise;
+  simulation.kvContrast = options.kvContrast;
+  simulation.addObjects = options.addObjects;
+  auto ownModel = std::make_shared<XRaySimulator>(ct, patient, simulation);
+  source.render = [ownModel, pose](const XRayView& view, std::mt19937& random) { return ownModel->Simulate(view, pose, random); };
+  std::ostringstream text;
+  text << "{ \"noise\": " << options.noise << ", \"kv_contrast\": " << (options.kvContrast ? "true" : "false")
+       << ", \"add_objects\": " << (options.addObjects ? "true" : "false") << " }";
+  source.model = text.str();
+  return source;
+}
+
+} // namespace
+
 int RunSimulate(const SimulateOptions& options)
 {
   UseThreads(options.threads);
@@ -49,40 +88,13 @@ int RunSimulate(const SimulateOptions& options)
   PatientSetup patient{ ParsePatientPosition(ct.patientPosition, options.ct), std::nullopt, geometry.isocenter };
   if (!options.isocenterInCT.empty())
     patient.isocenterInCT = ParsePoint(options.isocenterInCT, "--iso-ct");
-  std::string model;
-  std::function<std::vector<uint16_t>(const XRayView&, std::mt19937&)> render;
-  std::unique_ptr<XRaySimulator> ownModel;
-  std::unique_ptr<XRayPhysicsSimulator> physics;
-  if (clinical)
-  {
-    XRayPhysicsSettings settings = XRayPhysicsSettings::Clinical();
-    for (const std::string& effect : options.without)
-      SwitchOff(settings, effect, "--without");
-    physics = std::make_unique<XRayPhysicsSimulator>(
-      ct.image, patient.PlannedCTToRoom(ImageCenter(ct.image)), geometry.isocenter, settings);
-    render = [&](const XRayView& view, std::mt19937& random) { return physics->Simulate(view, pose, random); };
-    model = settings.Describe();
-  }
-  else
-  {
-    XRaySimulation simulation;
-    simulation.noise = options.noise;
-    simulation.kvContrast = options.kvContrast;
-    simulation.addObjects = options.addObjects;
-    ownModel = std::make_unique<XRaySimulator>(ct.image, patient, simulation);
-    render = [&](const XRayView& view, std::mt19937& random) { return ownModel->Simulate(view, pose, random); };
-    std::ostringstream text;
-    text << "{ \"noise\": " << options.noise << ", \"kv_contrast\": " << (options.kvContrast ? "true" : "false")
-         << ", \"add_objects\": " << (options.addObjects ? "true" : "false") << " }";
-    model = text.str();
-  }
-
+  const XRaySource source = MakeXRaySource(options, ct.image, patient, geometry.isocenter, pose);
   std::mt19937 random(options.seed);
   StagedOutputDirectory output(options.outputDirectory);
   for (const XRayView& panel : geometry.views)
   {
     const XRayView view = size.first > 0 ? panel.Resampled(size.first, size.second) : panel;
-    const std::vector<uint16_t> xray = render(view, random);
+    const std::vector<uint16_t> xray = source.render(view, random);
     WritePNG(ImageFromRowsTopFirst(xray, view.Columns(), view.Rows()), output.Path("xray_" + view.name + ".png"));
     std::printf("view %s: %dx%d simulated\n", view.name.c_str(), view.Columns(), view.Rows());
   }
@@ -91,7 +103,7 @@ int RunSimulate(const SimulateOptions& options)
         << ",\n  \"convention\": \"IEC 61217 fixed; p' = R(p - iso) + iso + t; R = Rz(yaw) Ry(roll) Rx(pitch)\""
         << ",\n  \"ct\": \"" << options.ct << "\",\n  \"geometry\": \"" << options.geometry << "\""
         << ",\n  \"size\": \"" << (options.size.empty() ? "panel" : options.size) << "\""
-        << ",\n  \"preset\": \"" << options.preset << "\",\n  \"model\": " << model << ",\n  \"seed\": " << options.seed
+        << ",\n  \"preset\": \"" << options.preset << "\",\n  \"model\": " << source.model << ",\n  \"seed\": " << options.seed
         << "\n}\n";
   truth.close();
   if (!truth)
