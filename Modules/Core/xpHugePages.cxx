@@ -3,6 +3,7 @@
 #include "xpError.h"
 
 #include <vtkFloatArray.h>
+#include <vtkShortArray.h>
 
 #include <cstdint>
 #include <string>
@@ -60,13 +61,30 @@ void FreeHugePages(void* memory)
   }
 }
 
-vtkSmartPointer<vtkFloatArray> NewHugePageFloatArray(vtkIdType count)
+namespace
 {
-  auto array = vtkSmartPointer<vtkFloatArray>::New();
-  auto* values = static_cast<float*>(AllocateHugePages(static_cast<size_t>(count) * sizeof(float)));
-  array->SetArray(values, count, 0, vtkFloatArray::VTK_DATA_ARRAY_USER_DEFINED);
+
+template <class ArrayT>
+vtkSmartPointer<ArrayT> NewHugePageArray(vtkIdType count)
+{
+  using Value = typename ArrayT::ValueType;
+  auto array = vtkSmartPointer<ArrayT>::New();
+  auto* values = static_cast<Value*>(AllocateHugePages(static_cast<size_t>(count) * sizeof(Value)));
+  array->SetArray(values, count, 0, ArrayT::VTK_DATA_ARRAY_USER_DEFINED);
   array->SetArrayFreeFunction(&FreeHugePages);
   return array;
+}
+
+} // namespace
+
+vtkSmartPointer<vtkFloatArray> NewHugePageFloatArray(vtkIdType count)
+{
+  return NewHugePageArray<vtkFloatArray>(count);
+}
+
+vtkSmartPointer<vtkShortArray> NewHugePageShortArray(vtkIdType count)
+{
+  return NewHugePageArray<vtkShortArray>(count);
 }
 
 } // namespace xp

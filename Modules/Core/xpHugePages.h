@@ -18,6 +18,7 @@
 #include <memory>
 
 class vtkFloatArray;
+class vtkShortArray;
 
 namespace xp
 {
@@ -44,8 +45,9 @@ HugePageArray<T> MakeHugePageArray(size_t count)
   return HugePageArray<T>(static_cast<T*>(AllocateHugePages(count * sizeof(T))), &FreeHugePages);
 }
 
-/** A one-component float array of `count` zeros that owns huge-page memory. */
+/** A one-component array of `count` zeros that owns huge-page memory. */
 VTKXPCORE_EXPORT vtkSmartPointer<vtkFloatArray> NewHugePageFloatArray(vtkIdType count);
+VTKXPCORE_EXPORT vtkSmartPointer<vtkShortArray> NewHugePageShortArray(vtkIdType count);
 
 } // namespace xp
 

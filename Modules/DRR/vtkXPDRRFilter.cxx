@@ -159,6 +159,13 @@ std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* c
   }
   int dims[3];
   ct->GetDimensions(dims);
+  const Eigen::Vector3i size(dims[0], dims[1], dims[2]);
+  // The readers keep HU as 16-bit integers or floats; other types are converted here.
+  if (scalars->GetDataType() == VTK_SHORT)
+  {
+    return std::make_unique<xp::AttenuationVolume>(
+      static_cast<const int16_t*>(scalars->GetVoidPointer(0)), size, xp::IndexToPhysical(ct), muWater);
+  }
   std::vector<float> hu;
   const float* values = nullptr;
   if (scalars->GetDataType() == VTK_FLOAT)
@@ -174,8 +181,7 @@ std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* c
     }
     values = hu.data();
   }
-  return std::make_unique<xp::AttenuationVolume>(
-    values, Eigen::Vector3i(dims[0], dims[1], dims[2]), xp::IndexToPhysical(ct), muWater);
+  return std::make_unique<xp::AttenuationVolume>(values, size, xp::IndexToPhysical(ct), muWater);
 }
 
 const xp::AttenuationVolume& vtkXPDRRFilter::Attenuation(vtkImageData* ct)

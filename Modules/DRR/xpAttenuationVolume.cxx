@@ -3,6 +3,7 @@
 #include "xpError.h"
 #include "xpHugePages.h"
 
+#include <vtkSMPThreadLocal.h>
 #include <vtkSMPTools.h>
 
 #include <algorithm>
@@ -31,6 +32,24 @@ AttenuationVolume::AttenuationVolume(
   , Padded(dims + Eigen::Vector3i::Constant(2))
   , Water(muWater)
 {
+  this->Build(hounsfield, indexToCT, airThreshold);
+}
+
+AttenuationVolume::AttenuationVolume(
+  const int16_t* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater,
+  double airThreshold)
+  : Dims(dims)
+  , Padded(dims + Eigen::Vector3i::Constant(2))
+  , Water(muWater)
+{
+  this->Build(hounsfield, indexToCT, airThreshold);
+}
+
+template <typename HU>
+void AttenuationVolume::Build(const HU* hounsfield, const Eigen::Affine3d& indexToCT, double airThreshold)
+{
+  const Eigen::Vector3i& dims = this->Dims;
+  const double muWater = this->Water;
   if (dims.minCoeff() < 1)
   {
     throw Error("attenuation volume: empty CT");
@@ -52,7 +71,17 @@ AttenuationVolume::AttenuationVolume(
   // found; voxels below airThreshold (noise in the air around the patient) count as air.
   const float air = static_cast<float>(airThreshold);
   const size_t voxelCount = static_cast<size_t>(dims[0]) * dims[1] * dims[2];
-  const float highest = std::max(air, *std::max_element(hounsfield, hounsfield + voxelCount));
+  vtkSMPThreadLocal<float> highestOfThread(air);
+  vtkSMPTools::For(0, static_cast<vtkIdType>(voxelCount), vtkIdType(1) << 20,
+    [&](vtkIdType begin, vtkIdType end)
+    {
+      float& highest = highestOfThread.Local();
+      for (vtkIdType i = begin; i < end; ++i)
+        highest = std::max(highest, static_cast<float>(hounsfield[i]));
+    });
+  float highest = air;
+  for (const float h : highestOfThread)
+    highest = std::max(highest, h);
   const double highestMu = muWater / 1000.0 * std::max(0.0, highest + 1000.0);
   this->Step = highestMu > 0.0 ? highestMu / 65535.0 : 1.0;
   const float scale = static_cast<float>(muWater / 1000.0 / this->Step);
@@ -63,11 +92,12 @@ AttenuationVolume::AttenuationVolume(
       {
         for (int j = 0; j < dims[1]; ++j)
         {
-          const float* in = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
+          const HU* in = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
           uint16_t* out = this->Mu.get() + (k + 1) * nxy + (j + 1) * nx + 1;
           for (int i = 0; i < dims[0]; ++i)
           {
-            const float steps = in[i] < air ? 0.0f : std::min(65535.0f, scale * std::max(0.0f, in[i] + 1000.0f));
+            const float hu = static_cast<float>(in[i]);
+            const float steps = hu < air ? 0.0f : std::min(65535.0f, scale * std::max(0.0f, hu + 1000.0f));
             out[i] = static_cast<uint16_t>(steps + 0.5f);
           }
         }

@@ -46,6 +46,9 @@ public:
    */
   AttenuationVolume(const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
     double muWater, double airThreshold = DefaultAirThreshold);
+  /** The same from 16-bit HU, as the CT readers keep whole-number HU. */
+  AttenuationVolume(const int16_t* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
+    double muWater, double airThreshold = DefaultAirThreshold);
 
   static constexpr double DefaultAirThreshold = -950.0;
 
@@ -83,6 +86,9 @@ public:
   double OccupiedFraction() const;
 
 private:
+  template <typename HU>
+  void Build(const HU* hounsfield, const Eigen::Affine3d& indexToCT, double airThreshold);
+
   /** Offset in Voxels() of original voxel (i, j, k). */
   size_t Offset(int i, int j, int k) const
   {

@@ -5,6 +5,7 @@
 #include "xpHugePages.h"
 
 #include <vtkFloatArray.h>
+#include <vtkShortArray.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
@@ -57,7 +58,7 @@ int vtkXPDICOMCTReader::RequestInformation(
   outInfo->Set(vtkDataObject::SPACING(), info.spacing.data(), 3);
   outInfo->Set(vtkDataObject::ORIGIN(), info.origin.data(), 3);
   outInfo->Set(vtkDataObject::DIRECTION(), direction, 9);
-  vtkDataObject::SetPointDataActiveScalarInfo(outInfo, VTK_FLOAT, 1);
+  vtkDataObject::SetPointDataActiveScalarInfo(outInfo, info.wholeHU16 ? VTK_SHORT : VTK_FLOAT, 1);
   return 1;
 }
 
@@ -70,11 +71,22 @@ int vtkXPDICOMCTReader::RequestData(vtkInformation*, vtkInformationVector**, vtk
   const xp::CTSeriesInfo& info = *this->Info;
   vtkImageData* output = vtkImageData::GetData(outputVector);
   const vtkIdType count = static_cast<vtkIdType>(info.columns) * info.rows * static_cast<vtkIdType>(info.files.size());
-  vtkSmartPointer<vtkFloatArray> scalars;
+  vtkSmartPointer<vtkDataArray> scalars;
   try
   {
-    scalars = xp::NewHugePageFloatArray(count); // filled once, then read out of order by ray casting
-    xp::ReadCTSeriesVoxels(info, scalars->GetPointer(0));
+    // Filled once, then read out of order by ray casting: on huge pages.
+    if (info.wholeHU16)
+    {
+      vtkSmartPointer<vtkShortArray> values = xp::NewHugePageShortArray(count);
+      xp::ReadCTSeriesVoxels(info, values->GetPointer(0));
+      scalars = values;
+    }
+    else
+    {
+      vtkSmartPointer<vtkFloatArray> values = xp::NewHugePageFloatArray(count);
+      xp::ReadCTSeriesVoxels(info, values->GetPointer(0));
+      scalars = values;
+    }
   }
   catch (const xp::Error& e)
   {

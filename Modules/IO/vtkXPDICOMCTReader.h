@@ -2,7 +2,10 @@
  * @class vtkXPDICOMCTReader
  * @brief Reads one DICOM CT series from a folder into vtkImageData in Hounsfield units.
  *
- * Output: float HU; origin, spacing and DirectionMatrix from Image Position/Orientation
+ * Output: HU as 16-bit integers (VTK_SHORT) when every slice stores integers of at most 16 bits
+ * with Rescale Slope 1 and a whole Rescale Intercept - the usual CT - with the rare values
+ * beyond -32768..32767 (padding, overflow) clamped; as float otherwise. Origin, spacing and
+ * DirectionMatrix from Image Position/Orientation
  * (Patient) so that index-to-physical gives DICOM patient coordinates (LPS, mm); slices sorted
  * along the slice normal. Compressed transfer syntaxes are decoded by GDCM. Errors (corrupt
  * file, several series, missing slice, gantry tilt, not a CT) are reported with vtkErrorMacro

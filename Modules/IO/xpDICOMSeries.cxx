@@ -12,6 +12,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <type_traits>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -38,6 +39,8 @@ const gdcm::Tag GantryTiltTag(0x0018, 0x1120);
 const gdcm::Tag FramesTag(0x0028, 0x0008);
 const gdcm::Tag SamplesTag(0x0028, 0x0002);
 const gdcm::Tag BitsAllocatedTag(0x0028, 0x0100);
+const gdcm::Tag RescaleInterceptTag(0x0028, 0x1052);
+const gdcm::Tag RescaleSlopeTag(0x0028, 0x1053);
 const gdcm::Tag PixelDataTag(0x7fe0, 0x0010);
 
 // Bounds before allocation: 8192^2 pixels a slice, 2^30 voxels (4 GiB of float HU) a volume.
@@ -53,6 +56,8 @@ struct SliceHeader
   int rows = 0, columns = 0, frames = 1, samples = 1;
   double tilt = 0.0;
   double along = 0.0; // position along the slice normal
+  int bitsAllocated = 16;
+  double slope = 1.0, intercept = 0.0; // Rescale Slope/Intercept, 1 and 0 when absent
 };
 
 std::string Trim(const std::string& s)
@@ -143,6 +148,10 @@ bool ReadHeader(const std::string& file, SliceHeader& h)
   h.frames = frames.empty() ? 1 : std::atoi(frames.c_str());
   h.samples = samples.empty() ? 1 : std::atoi(samples.c_str());
   h.tilt = tilt.empty() ? 0.0 : std::atof(tilt.c_str());
+  const std::string bits = get(BitsAllocatedTag), slope = get(RescaleSlopeTag), intercept = get(RescaleInterceptTag);
+  h.bitsAllocated = bits.empty() ? 16 : std::atoi(bits.c_str());
+  h.slope = slope.empty() ? 1.0 : std::atof(slope.c_str());
+  h.intercept = intercept.empty() ? 0.0 : std::atof(intercept.c_str());
   if (h.frames > 1)
   {
     throw InputError(file, "multi-frame CT (Number of Frames (0028,0008) = " + frames + ") is not supported");
@@ -216,6 +225,8 @@ double SliceSpacing(const std::vector<SliceHeader>& slices, const Eigen::Vector3
   return spacing;
 }
 
+/** HU from stored values: as float, or (16-bit HU) the stored integer plus the intercept,
+ *  clamped to the 16-bit range. */
 template <typename T>
 void Rescale(const char* raw, size_t count, double slope, double intercept, float* out)
 {
@@ -223,6 +234,79 @@ void Rescale(const char* raw, size_t count, double slope, double intercept, floa
   for (size_t i = 0; i < count; ++i)
   {
     out[i] = static_cast<float>(values[i] * slope + intercept);
+  }
+}
+
+template <typename T>
+void Rescale(const char* raw, size_t count, double, double intercept, int16_t* out)
+{
+  const T* values = reinterpret_cast<const T*>(raw);
+  const int64_t offset = static_cast<int64_t>(intercept);
+  for (size_t i = 0; i < count; ++i)
+  {
+    out[i] = static_cast<int16_t>(std::clamp<int64_t>(values[i] + offset, -32768, 32767));
+  }
+}
+
+template <typename Out>
+void ReadSlices(const CTSeriesInfo& info, Out* hounsfield)
+{
+  const size_t sliceSize = static_cast<size_t>(info.columns) * info.rows;
+  std::vector<char> raw;
+  for (size_t k = 0; k < info.files.size(); ++k)
+  {
+    const std::string& file = info.files[k];
+    gdcm::ImageReader reader;
+    reader.SetFileName(file.c_str());
+    if (!reader.Read())
+    {
+      throw InputError(file, "cannot read the pixel data (corrupt, truncated or unsupported encoding)");
+    }
+    const gdcm::Image& image = reader.GetImage();
+    const unsigned int* dims = image.GetDimensions();
+    if (dims[0] != static_cast<unsigned>(info.columns) || dims[1] != static_cast<unsigned>(info.rows))
+    {
+      throw InputError(file, "pixel data size differs from the series");
+    }
+    raw.resize(image.GetBufferLength());
+    if (!image.GetBuffer(raw.data()))
+    {
+      throw InputError(file, "cannot decode the pixel data (truncated or corrupt)");
+    }
+    const gdcm::PixelFormat format = image.GetPixelFormat();
+    if (format.GetSamplesPerPixel() != 1 || raw.size() < sliceSize * format.GetPixelSize())
+    {
+      throw InputError(file, "pixel data is shorter than Rows x Columns");
+    }
+    Out* out = hounsfield + k * sliceSize;
+    const double slope = image.GetSlope(), intercept = image.GetIntercept();
+    if (std::is_same<Out, int16_t>::value && (slope != 1.0 || intercept != std::floor(intercept) || format.GetBitsAllocated() > 16))
+    {
+      throw InputError(file, "Rescale Slope/Intercept or Bits Allocated of the pixel data differ from the header's");
+    }
+    switch (format.GetScalarType())
+    {
+      case gdcm::PixelFormat::INT16:
+        Rescale<int16_t>(raw.data(), sliceSize, slope, intercept, out);
+        break;
+      case gdcm::PixelFormat::UINT16:
+        Rescale<uint16_t>(raw.data(), sliceSize, slope, intercept, out);
+        break;
+      case gdcm::PixelFormat::INT32:
+        Rescale<int32_t>(raw.data(), sliceSize, slope, intercept, out);
+        break;
+      case gdcm::PixelFormat::UINT32:
+        Rescale<uint32_t>(raw.data(), sliceSize, slope, intercept, out);
+        break;
+      case gdcm::PixelFormat::INT8:
+        Rescale<int8_t>(raw.data(), sliceSize, slope, intercept, out);
+        break;
+      case gdcm::PixelFormat::UINT8:
+        Rescale<uint8_t>(raw.data(), sliceSize, slope, intercept, out);
+        break;
+      default:
+        throw InputError(file, "unsupported pixel representation (Bits Allocated / Pixel Representation)");
+    }
   }
 }
 
@@ -311,68 +395,28 @@ CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& serie
   info.direction.col(0) = first.rowDirection;
   info.direction.col(1) = first.columnDirection;
   info.direction.col(2) = normal;
+  info.wholeHU16 = true;
   for (const SliceHeader& h : slices)
   {
     info.files.push_back(h.file);
+    info.wholeHU16 = info.wholeHU16 && h.bitsAllocated <= 16 && h.slope == 1.0 && h.intercept == std::floor(h.intercept) &&
+      std::abs(h.intercept) <= 65536.0;
   }
   return info;
 }
 
 void ReadCTSeriesVoxels(const CTSeriesInfo& info, float* hounsfield)
 {
-  const size_t sliceSize = static_cast<size_t>(info.columns) * info.rows;
-  std::vector<char> raw;
-  for (size_t k = 0; k < info.files.size(); ++k)
+  ReadSlices(info, hounsfield);
+}
+
+void ReadCTSeriesVoxels(const CTSeriesInfo& info, int16_t* hounsfield)
+{
+  if (!info.wholeHU16)
   {
-    const std::string& file = info.files[k];
-    gdcm::ImageReader reader;
-    reader.SetFileName(file.c_str());
-    if (!reader.Read())
-    {
-      throw InputError(file, "cannot read the pixel data (corrupt, truncated or unsupported encoding)");
-    }
-    const gdcm::Image& image = reader.GetImage();
-    const unsigned int* dims = image.GetDimensions();
-    if (dims[0] != static_cast<unsigned>(info.columns) || dims[1] != static_cast<unsigned>(info.rows))
-    {
-      throw InputError(file, "pixel data size differs from the series");
-    }
-    raw.resize(image.GetBufferLength());
-    if (!image.GetBuffer(raw.data()))
-    {
-      throw InputError(file, "cannot decode the pixel data (truncated or corrupt)");
-    }
-    const gdcm::PixelFormat format = image.GetPixelFormat();
-    if (format.GetSamplesPerPixel() != 1 || raw.size() < sliceSize * format.GetPixelSize())
-    {
-      throw InputError(file, "pixel data is shorter than Rows x Columns");
-    }
-    float* out = hounsfield + k * sliceSize;
-    const double slope = image.GetSlope(), intercept = image.GetIntercept();
-    switch (format.GetScalarType())
-    {
-      case gdcm::PixelFormat::INT16:
-        Rescale<int16_t>(raw.data(), sliceSize, slope, intercept, out);
-        break;
-      case gdcm::PixelFormat::UINT16:
-        Rescale<uint16_t>(raw.data(), sliceSize, slope, intercept, out);
-        break;
-      case gdcm::PixelFormat::INT32:
-        Rescale<int32_t>(raw.data(), sliceSize, slope, intercept, out);
-        break;
-      case gdcm::PixelFormat::UINT32:
-        Rescale<uint32_t>(raw.data(), sliceSize, slope, intercept, out);
-        break;
-      case gdcm::PixelFormat::INT8:
-        Rescale<int8_t>(raw.data(), sliceSize, slope, intercept, out);
-        break;
-      case gdcm::PixelFormat::UINT8:
-        Rescale<uint8_t>(raw.data(), sliceSize, slope, intercept, out);
-        break;
-      default:
-        throw InputError(file, "unsupported pixel representation (Bits Allocated / Pixel Representation)");
-    }
+    throw Error(info.directory, "internal: the series' HU are not whole 16-bit numbers");
   }
+  ReadSlices(info, hounsfield);
 }
 
 } // namespace xp

@@ -13,6 +13,7 @@
 #include "vtkXPIOModule.h"
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,9 @@ struct VTKXPIO_EXPORT CTSeriesInfo
   Eigen::Vector3d spacing;             ///< between columns, between rows, between slices (mm)
   Eigen::Vector3d origin;              ///< centre of the first voxel, LPS mm
   Eigen::Matrix3d direction;           ///< columns: row direction, column direction, slice normal
+  /** Every slice stores integers of at most 16 bits with Rescale Slope 1 and a whole Rescale
+   *  Intercept: its HU are whole numbers, kept as 16-bit integers (clamped to -32768..32767). */
+  bool wholeHU16 = false;
 };
 
 /**
@@ -45,6 +49,8 @@ VTKXPIO_EXPORT CTSeriesInfo ScanCTSeries(const std::string& directory, const std
  * columns x rows x slices values. Throws xp::InputError naming the file that fails.
  */
 VTKXPIO_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, float* hounsfield);
+/** The same as 16-bit HU, for a series whose info.wholeHU16 is set. */
+VTKXPIO_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, int16_t* hounsfield);
 
 } // namespace xp
 

@@ -4,6 +4,7 @@
 #include "xpHugePages.h"
 
 #include <vtkFloatArray.h>
+#include <vtkShortArray.h>
 #include <vtkImageData.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
@@ -103,6 +104,35 @@ int64_t ConvertStream(const VolumeHeader& header, const std::function<void(char*
   return -1;
 }
 
+/** Reads the stored integers a chunk at a time as 16-bit HU (stored + intercept, clamped to
+ *  the 16-bit range), each chunk in parallel. */
+template <typename T>
+void ConvertStreamToShort(const VolumeHeader& header, const std::function<void(char*, uint64_t)>& readVoxels, int16_t* out)
+{
+  constexpr int64_t ChunkVoxels = int64_t(1) << 21;
+  const int64_t n = header.VoxelCount();
+  const bool swap = header.bigEndian && sizeof(T) > 1;
+  const int32_t intercept = static_cast<int32_t>(header.intercept);
+  std::vector<char> chunk(static_cast<size_t>(std::min(n, ChunkVoxels)) * sizeof(T));
+  for (int64_t start = 0; start < n; start += ChunkVoxels)
+  {
+    const int64_t count = std::min(ChunkVoxels, n - start);
+    readVoxels(chunk.data(), static_cast<uint64_t>(count) * sizeof(T));
+    const char* data = chunk.data();
+    vtkSMPTools::For(0, count, int64_t(1) << 18,
+      [&](int64_t begin, int64_t end)
+      {
+        for (int64_t i = begin; i < end; ++i)
+        {
+          T stored;
+          std::memcpy(&stored, data + i * sizeof(T), sizeof(T));
+          const int32_t hu = static_cast<int32_t>(swap ? Swapped(stored) : stored) + intercept;
+          out[start + i] = static_cast<int16_t>(std::clamp<int32_t>(hu, -32768, 32767));
+        }
+      });
+  }
+}
+
 /** Checks float voxels already in place, in parallel; the first bad one, or -1. */
 int64_t CheckInPlace(const float* voxels, int64_t count)
 {
@@ -156,6 +186,14 @@ uint64_t FileSize(const std::string& path)
 {
   struct stat status;
   return stat(path.c_str(), &status) == 0 ? static_cast<uint64_t>(status.st_size) : 0;
+}
+
+bool KeepsWholeHU16(const VolumeHeader& header)
+{
+  const bool smallIntegers = header.type == VoxelType::Int8 || header.type == VoxelType::UInt8 ||
+    header.type == VoxelType::Int16 || header.type == VoxelType::UInt16;
+  return smallIntegers && header.slope == 1.0 && header.intercept == std::floor(header.intercept) &&
+    std::abs(header.intercept) <= 65536.0;
 }
 
 uint64_t VolumeHeader::DataBytes() const
@@ -216,6 +254,34 @@ CTVolume MakeCTVolume(
   const Eigen::Matrix3d& m = header.direction;
   image->SetDirectionMatrix(m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1), m(2, 2));
   const int64_t n = header.VoxelCount();
+  if (KeepsWholeHU16(header))
+  {
+    vtkSmartPointer<vtkShortArray> hu = NewHugePageShortArray(n);
+    hu->SetName("HU");
+    int16_t* out = hu->GetPointer(0);
+    switch (header.type)
+    {
+      case VoxelType::Int8:
+        ConvertStreamToShort<int8_t>(header, readVoxels, out);
+        break;
+      case VoxelType::UInt8:
+        ConvertStreamToShort<uint8_t>(header, readVoxels, out);
+        break;
+      case VoxelType::Int16:
+        if (!header.bigEndian && header.intercept == 0.0)
+          readVoxels(reinterpret_cast<char*>(out), header.DataBytes()); // already 16-bit HU
+        else
+          ConvertStreamToShort<int16_t>(header, readVoxels, out);
+        break;
+      default:
+        ConvertStreamToShort<uint16_t>(header, readVoxels, out);
+        break;
+    }
+    image->GetPointData()->SetScalars(hu);
+    CTVolume volume;
+    volume.image = image;
+    return volume;
+  }
   vtkSmartPointer<vtkFloatArray> hu = NewHugePageFloatArray(n);
   hu->SetName("HU");
   float* out = hu->GetPointer(0);

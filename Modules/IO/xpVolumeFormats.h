@@ -64,11 +64,21 @@ uint64_t FileSize(const std::string& path);
 void CheckVolumeHeader(const VolumeHeader& header, const std::string& path, const std::array<std::string, 4>& fields);
 
 /**
- * Makes the float HU image of a volume whose voxel bytes, as stored in the file, `readVoxels`
+ * Whether a volume's HU are kept as 16-bit integers (vtkShortArray) rather than floats: stored
+ * integers of at most 16 bits, rescale slope 1 and a whole intercept. Their HU are then whole
+ * numbers; the few that could fall outside -32768..32767 (padding below air, overflow above
+ * any metal) are clamped to it. Half the memory of floats, and a CT is read and prepared for
+ * ray casting in half the time.
+ */
+bool KeepsWholeHU16(const VolumeHeader& header);
+
+/**
+ * Makes the HU image of a volume whose voxel bytes, as stored in the file, `readVoxels`
  * gives in order: each call writes the next `count` bytes to the pointer it is given, and the
  * calls add up to header.DataBytes(). Stored native floats are read straight into the image;
  * other types a few MiB at a time, converted and rescaled in parallel, so no copy of the whole
- * file is held. Refuses non-finite voxels and voxels beyond +-1e6 HU, naming `path`.
+ * file is held. 16-bit HU when KeepsWholeHU16, float otherwise; float voxels that are not
+ * finite or beyond +-1e6 HU are refused, naming `path`.
  */
 CTVolume MakeCTVolume(
   const VolumeHeader& header, const std::string& path, const std::function<void(char*, uint64_t)>& readVoxels);

@@ -18,7 +18,9 @@ namespace xp
 
 struct VTKXPIO_EXPORT CTVolume
 {
-  /** Float HU; index-to-physical (origin, spacing, DirectionMatrix) gives LPS mm. */
+  /** HU: 16-bit integers (VTK_SHORT) where the file stores integers of at most 16 bits with
+   *  rescale slope 1 and a whole intercept (values beyond the 16-bit range clamped), float
+   *  otherwise; index-to-physical (origin, spacing, DirectionMatrix) gives LPS mm. */
   vtkSmartPointer<vtkImageData> image;
   /** DICOM Patient Position; "HFS" for formats that do not carry one. */
   std::string patientPosition = "HFS";

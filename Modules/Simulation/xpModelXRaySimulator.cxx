@@ -4,6 +4,9 @@
 #include "xpImageRows.h"
 
 #include <vtkDataArray.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkNew.h>
 #include <vtkPointData.h>
 
 #include <algorithm>
@@ -23,14 +26,20 @@ namespace
  */
 vtkSmartPointer<vtkImageData> KVContrastCT(vtkImageData* ct)
 {
+  // A float copy: the re-weighted HU are fractional, and may exceed a 16-bit CT's range.
   auto copy = vtkSmartPointer<vtkImageData>::New();
-  copy->DeepCopy(ct);
-  vtkDataArray* hu = copy->GetPointData()->GetScalars();
-  for (vtkIdType i = 0; i < hu->GetNumberOfTuples(); ++i)
+  copy->CopyStructure(ct);
+  copy->SetDirectionMatrix(ct->GetDirectionMatrix());
+  vtkDataArray* in = ct->GetPointData()->GetScalars();
+  vtkNew<vtkFloatArray> hu;
+  hu->SetName("HU");
+  hu->SetNumberOfValues(in->GetNumberOfTuples());
+  for (vtkIdType i = 0; i < in->GetNumberOfTuples(); ++i)
   {
-    const double v = hu->GetTuple1(i);
-    hu->SetTuple1(i, v > 100.0 ? 100.0 + 1.4 * (v - 100.0) : v);
+    const double v = in->GetTuple1(i);
+    hu->SetValue(i, static_cast<float>(v > 100.0 ? 100.0 + 1.4 * (v - 100.0) : v));
   }
+  copy->GetPointData()->SetScalars(hu);
   return copy;
 }
 

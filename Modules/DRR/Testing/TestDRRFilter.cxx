@@ -167,3 +167,27 @@ TEST(vtkXPDRRFilter, MaskPortSkipsRaysAndFlagsThem)
   drr->GlobalWarningDisplayOn();
   EXPECT_EQ(drr->GetOutput(0)->GetNumberOfPoints(), 0) << "a mask of the wrong size is refused";
 }
+
+// 16-bit and float HU of the same values give the same attenuation volume, hence the same DRR.
+TEST(vtkXPDRRFilter, SixteenBitAndFloatHUGiveTheSameDRR)
+{
+  Eigen::Vector3d marker;
+  vtkSmartPointer<vtkImageData> shortCT = MarkerCT(marker);
+  auto floatCT = vtkSmartPointer<vtkImageData>::New();
+  floatCT->CopyStructure(shortCT);
+  vtkNew<vtkFloatArray> hu;
+  hu->SetNumberOfValues(shortCT->GetNumberOfPoints());
+  for (vtkIdType i = 0; i < shortCT->GetNumberOfPoints(); ++i)
+    hu->SetValue(i, static_cast<float>(shortCT->GetPointData()->GetScalars()->GetTuple1(i)));
+  floatCT->GetPointData()->SetScalars(hu);
+  vtkSmartPointer<vtkXPDRRFilter> a = RenderViewA(shortCT), b = RenderViewA(floatCT);
+  const float* la = static_cast<const float*>(a->GetOutput(1)->GetScalarPointer());
+  const float* lb = static_cast<const float*>(b->GetOutput(1)->GetScalarPointer());
+  double largest = 0.0;
+  for (vtkIdType i = 0; i < a->GetOutput(1)->GetNumberOfPoints(); ++i)
+  {
+    ASSERT_EQ(la[i], lb[i]) << "pixel " << i;
+    largest = std::max(largest, static_cast<double>(la[i]));
+  }
+  EXPECT_GT(largest, 0.1); // the marker is in the picture
+}

@@ -78,6 +78,26 @@ TEST(DICOMCTReader, ReadsGeometryAndHUAndSortsByPositionNotName)
   EXPECT_EQ(reader->GetPatientPosition(), "HFS");
 }
 
+// A CT stores whole HU in 16 bits: the image keeps them so (half the memory of floats), and the
+// few beyond the 16-bit range are clamped to it.
+TEST(DICOMCTReader, WholeHUAreKeptAsSixteenBitIntegersAndClampedBeyond)
+{
+  const std::string dir = FreshFolder("dicom-short");
+  xp::CTVolumeData volume = SmallVolume();
+  volume.hounsfield[5] = 40000.0f; // beyond any anatomy or metal
+  xp::WriteCTSeries(volume, dir);
+  vtkNew<vtkXPDICOMCTReader> reader;
+  reader->SetDirectoryName(dir.c_str());
+  reader->UpdateInformation();
+  EXPECT_EQ(vtkImageData::GetScalarType(reader->GetOutputInformation(0)), VTK_SHORT);
+  reader->Update();
+  vtkImageData* image = reader->GetOutput();
+  ASSERT_EQ(image->GetScalarType(), VTK_SHORT);
+  EXPECT_EQ(image->GetScalarComponentAsDouble(3, 5, 7, 0), 10 * 3 + 100 * 5 + 1000 * 7 - 1000);
+  EXPECT_EQ(image->GetScalarComponentAsDouble(0, 0, 0, 0), -1000);
+  EXPECT_EQ(image->GetScalarComponentAsDouble(5, 0, 0, 0), 32767);
+}
+
 TEST(DICOMCTReader, KeepsObliqueOrientation)
 {
   const Eigen::Matrix3d rotation =

@@ -56,6 +56,7 @@ TEST(VolumeIO, MetaImageDirectionIsRead)
   EXPECT_NEAR(p[1], 21.0, 1e-9);
   EXPECT_NEAR(p[2], 33.0, 1e-9);
   EXPECT_EQ(ct.image->GetScalarComponentAsDouble(1, 1, 1, 0), (1 + 4 + 12) * 10 - 1000);
+  EXPECT_EQ(ct.image->GetScalarType(), VTK_SHORT); // whole HU stay 16-bit integers
 }
 
 TEST(VolumeIO, NIfTIIsConvertedFromRASToLPS)
@@ -82,6 +83,15 @@ TEST(VolumeIO, NIfTIIsConvertedFromRASToLPS)
   EXPECT_NEAR(p[1], -(6.0 + 1.5), 1e-6);
   EXPECT_NEAR(p[2], 7.0 + 2.0, 1e-6);
   EXPECT_EQ(ct.image->GetScalarComponentAsDouble(2, 1, 1, 0), (2 + 4 + 12) - 1000);
+  EXPECT_EQ(ct.image->GetScalarType(), VTK_SHORT);
+
+  // A rescale slope other than 1 gives fractional HU: kept as float.
+  writer->SetRescaleSlope(0.5);
+  writer->SetFileName((dir + "/half.nii.gz").c_str());
+  writer->Write();
+  const xp::CTVolume half = xp::ReadCTVolume(dir + "/half.nii.gz");
+  EXPECT_EQ(half.image->GetScalarType(), VTK_FLOAT);
+  EXPECT_DOUBLE_EQ(half.image->GetScalarComponentAsDouble(3, 0, 0, 0), 0.5 * (3 - 1000));
 }
 
 TEST(VolumeIO, MetaImageCompressedOrBesideItsHeaderIsReadAndRefusedWhenCut)
@@ -172,6 +182,25 @@ TEST(VolumeIO, LargeMetaImagesAreConvertedInFileOrderAndTheFirstBadVoxelIsNamed)
       }
     }
   }
+  // 16-bit voxels, big-endian: converted a chunk at a time into 16-bit HU.
+  {
+    std::vector<unsigned char> bytes(count * 2);
+    for (size_t i = 0; i < count; ++i)
+    {
+      const int16_t v = static_cast<int16_t>(value(i));
+      bytes[2 * i] = static_cast<unsigned char>((v >> 8) & 0xff);
+      bytes[2 * i + 1] = static_cast<unsigned char>(v & 0xff);
+    }
+    std::ofstream out(dir + "/short-msb.mha", std::ios::binary);
+    out << "ObjectType = Image\nNDims = 3\nDimSize = " << nx << " " << ny << " " << nz << "\nElementType = MET_SHORT\n"
+        << "BinaryDataByteOrderMSB = True\nElementDataFile = LOCAL\n";
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  }
+  const xp::CTVolume shortCT = xp::ReadCTVolume(dir + "/short-msb.mha");
+  ASSERT_EQ(shortCT.image->GetScalarType(), VTK_SHORT);
+  const int16_t* shortHU = static_cast<const int16_t*>(shortCT.image->GetScalarPointer());
+  for (const size_t i : { size_t(0), size_t(1) << 21, secondChunk, count - 1 })
+    EXPECT_EQ(shortHU[i], value(i)) << "voxel " << i;
   write("long-z.mha", false, true, none, 8);
   try
   {
