@@ -106,6 +106,9 @@ struct RegisterOptions
   int threads = 0;
   std::string outputDirectory;
   std::string reportDirectory;      ///< when set, the visual report is written there too
+  /** When set, an `ok` result is also written there as a DICOM Spatial Registration (reg.dcm)
+   *  from the CT's Frame of Reference; the CT must be a DICOM series. */
+  std::string dicomOutputDirectory;
 };
 
 struct ReportOptions

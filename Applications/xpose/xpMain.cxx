@@ -155,6 +155,8 @@ CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
   registerCommand->add_option("--threads", options.threads, "Threads (0: all cores)");
   registerCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
   registerCommand->add_option("--report", options.reportDirectory, "Also write the visual report (index.html, summary.png) here");
+  registerCommand->add_option("--dicom-out", options.dicomOutputDirectory,
+    "Also write an ok result as a DICOM Spatial Registration (reg.dcm) here; needs a DICOM CT");
   return registerCommand;
 }
 

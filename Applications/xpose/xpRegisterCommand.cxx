@@ -13,6 +13,7 @@
 #include "xpImageRows.h"
 #include "xpImageGeometry.h"
 #include "xpRegistrationRecord.h"
+#include "xpSpatialRegistration.h"
 
 #include <vtkCallbackCommand.h>
 #include <vtkCommand.h>
@@ -25,6 +26,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <sys/stat.h>
 #include <sstream>
 
 namespace xp
@@ -215,6 +218,42 @@ void WriteOutputs(vtkXPStereoRegistrationFilter* registration, const Registratio
   output.Commit();
 }
 
+/** The CT series a REG will refer to, checked before any work: --dicom-out needs a DICOM CT
+ *  with a study and a Frame of Reference. */
+std::optional<CTSeriesInfo> DICOMOutputCT(const RegisterOptions& options)
+{
+  if (options.dicomOutputDirectory.empty())
+    return std::nullopt;
+  StagedOutputDirectory::CheckWritable(options.dicomOutputDirectory);
+  struct stat status;
+  if (stat(options.ct.c_str(), &status) != 0 || !S_ISDIR(status.st_mode))
+    throw InputError("--dicom-out", "needs the CT as a DICOM series (a folder): a REG refers to its Frame of Reference");
+  CTSeriesInfo ct = ScanCTSeries(options.ct, options.series);
+  if (ct.studyInstanceUID.empty())
+    throw InputError(ct.files.front(), "Study Instance UID (0020,000D) missing: --dicom-out cannot join the CT's study");
+  if (ct.frameOfReferenceUID.empty())
+    throw InputError(ct.files.front(), "Frame of Reference UID (0020,0052) missing: --dicom-out cannot refer to it");
+  return ct;
+}
+
+/** reg.dcm: the estimated misalignment in the CT's coordinates, from its Frame of Reference. */
+void WriteDICOMResult(const CTSeriesInfo& ct, const StereoRegistrationResult& result, const RegistrationInputs& inputs,
+  const std::string& directory)
+{
+  if (!result.ok)
+  {
+    std::printf("no DICOM Spatial Registration written: the registration failed\n");
+    return;
+  }
+  SpatialRegistration registration;
+  registration.ctToSession = MisalignmentInCT(inputs.planned, result.misalignment, inputs.setup.patient.roomIsocenter);
+  registration.contentDescription = "xpose: patient misalignment; table correction = inverse";
+  StagedOutputDirectory output(directory);
+  const std::string uid = WriteSpatialRegistration(ct, registration, output.Path("reg.dcm"));
+  output.Commit();
+  std::printf("DICOM Spatial Registration %s in %s/reg.dcm\n", uid.c_str(), directory.c_str());
+}
+
 void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)
 {
   std::printf("\n%s\nmisalignment: %s\ncorrection:   %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); apply the "
@@ -238,6 +277,7 @@ int RunRegister(const RegisterOptions& options)
   if (!options.reportDirectory.empty())
     StagedOutputDirectory::CheckWritable(options.reportDirectory);
   // Every input is read and checked before any work.
+  const std::optional<CTSeriesInfo> dicomCT = DICOMOutputCT(options);
   const RegistrationInputs inputs = LoadRegistrationInputs(options);
   const DRRSetup& setup = inputs.setup;
   const double readSeconds = Since(start);
@@ -274,6 +314,8 @@ int RunRegister(const RegisterOptions& options)
   record.inputs = RecordedInputs(options);
   WriteOutputs(registration, record, inputs.views, options);
   PrintResult(result, record.totalSeconds, options.outputDirectory);
+  if (dicomCT)
+    WriteDICOMResult(*dicomCT, result, inputs, options.dicomOutputDirectory);
   if (!options.reportDirectory.empty())
   {
     ReportOptions report;

@@ -229,4 +229,10 @@ Eigen::Isometry3d MisalignedCTToRoom(const Eigen::Isometry3d& plannedCTToRoom, c
   return misalignment.ToTransform(roomIsocenter) * plannedCTToRoom;
 }
 
+Eigen::Isometry3d MisalignmentInCT(const Eigen::Isometry3d& plannedCTToRoom, const Pose& misalignment,
+  const Eigen::Vector3d& roomIsocenter)
+{
+  return plannedCTToRoom.inverse() * MisalignedCTToRoom(plannedCTToRoom, misalignment, roomIsocenter);
+}
+
 } // namespace xp

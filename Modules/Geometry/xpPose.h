@@ -100,6 +100,15 @@ struct VTKXPGEOMETRY_EXPORT PatientSetup
 VTKXPGEOMETRY_EXPORT Eigen::Isometry3d MisalignedCTToRoom(const Eigen::Isometry3d& plannedCTToRoom,
   const Pose& misalignment, const Eigen::Vector3d& roomIsocenter);
 
+/**
+ * The misalignment in the CT's own coordinates (LPS mm): the anatomy at planned CT point p is
+ * found at CT point MisalignmentInCT * p. It is the room misalignment conjugated by the planned
+ * set-up, a rotation by the same angle about the CT point at the isocentre plus a translation:
+ * what a DICOM Spatial Registration from the CT's Frame of Reference carries.
+ */
+VTKXPGEOMETRY_EXPORT Eigen::Isometry3d MisalignmentInCT(const Eigen::Isometry3d& plannedCTToRoom,
+  const Pose& misalignment, const Eigen::Vector3d& roomIsocenter);
+
 } // namespace xp
 
 #endif

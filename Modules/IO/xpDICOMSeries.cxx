@@ -40,6 +40,10 @@ const gdcm::Tag FramesTag(0x0028, 0x0008);
 const gdcm::Tag SamplesTag(0x0028, 0x0002);
 const gdcm::Tag BitsAllocatedTag(0x0028, 0x0100);
 const gdcm::Tag RescaleInterceptTag(0x0028, 0x1052);
+const gdcm::Tag SOPClassTag(0x0008, 0x0016);
+const gdcm::Tag SOPInstanceTag(0x0008, 0x0018);
+const gdcm::Tag StudyUIDTag(0x0020, 0x000d);
+const gdcm::Tag FrameOfReferenceTag(0x0020, 0x0052);
 const gdcm::Tag RescaleSlopeTag(0x0028, 0x1053);
 const gdcm::Tag PixelDataTag(0x7fe0, 0x0010);
 
@@ -51,6 +55,7 @@ struct SliceHeader
 {
   std::string file;
   std::string modality, seriesUID, description, patientPosition;
+  std::string sopClassUID, sopInstanceUID, studyUID, frameOfReferenceUID;
   Eigen::Vector3d position, rowDirection, columnDirection;
   Eigen::Vector2d pixelSpacing; // DICOM order: between rows, between columns
   int rows = 0, columns = 0, frames = 1, samples = 1;
@@ -112,6 +117,10 @@ bool ReadHeader(const std::string& file, SliceHeader& h)
   h.seriesUID = get(SeriesUID);
   h.description = get(SeriesDescription);
   h.patientPosition = get(PatientPositionTag);
+  h.sopClassUID = get(SOPClassTag);
+  h.sopInstanceUID = get(SOPInstanceTag);
+  h.studyUID = get(StudyUIDTag);
+  h.frameOfReferenceUID = get(FrameOfReferenceTag);
   const std::vector<double> ipp = Numbers(get(PositionTag)), iop = Numbers(get(OrientationTag)),
                             ps = Numbers(get(PixelSpacingTag));
   if (h.modality != "CT")
@@ -396,9 +405,13 @@ CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& serie
   info.direction.col(1) = first.columnDirection;
   info.direction.col(2) = normal;
   info.wholeHU16 = true;
+  info.studyInstanceUID = first.studyUID;
+  info.frameOfReferenceUID = first.frameOfReferenceUID;
+  info.sopClassUID = first.sopClassUID;
   for (const SliceHeader& h : slices)
   {
     info.files.push_back(h.file);
+    info.sopInstanceUIDs.push_back(h.sopInstanceUID);
     info.wholeHU16 = info.wholeHU16 && h.bitsAllocated <= 16 && h.slope == 1.0 && h.intercept == std::floor(h.intercept) &&
       std::abs(h.intercept) <= 65536.0;
   }

@@ -27,6 +27,10 @@ struct VTKXPIO_EXPORT CTSeriesInfo
   std::string seriesDescription;
   std::string patientPosition;         ///< DICOM (0018,5100), "HFS" when absent
   std::vector<std::string> files;      ///< sorted along the slice normal
+  std::vector<std::string> sopInstanceUIDs; ///< of `files`, in the same order
+  std::string sopClassUID;             ///< of the first file (CT Image Storage, or Enhanced ...)
+  std::string studyInstanceUID;        ///< of the first file
+  std::string frameOfReferenceUID;     ///< of the first file; empty when it has none
   int columns = 0;                     ///< pixels per row
   int rows = 0;                        ///< rows per slice
   Eigen::Vector3d spacing;             ///< between columns, between rows, between slices (mm)

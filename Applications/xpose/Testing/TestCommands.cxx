@@ -2,6 +2,11 @@
 #include "xpCommands.h"
 #include "xpProjectionMatrix.h"
 #include "xpRegistrationRecord.h"
+#include "xpDICOMSeries.h"
+#include "xpImageGeometry.h"
+#include "xpPose.h"
+#include "xpSpatialRegistration.h"
+#include "xpVolumeIO.h"
 #include "xpStereoGeometry.h"
 
 #include <dirent.h>
@@ -316,7 +321,8 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   ASSERT_EQ(std::system("rm -rf cmd-reg-sim cmd-reg"), 0);
   const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "5,-3,2,1,-1,1.5", 20.0, false, "cmd-reg-sim");
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
-  const xp::RegisterOptions options = RegisterSimulated("cmd-reg-sim", "cmd-reg");
+  xp::RegisterOptions options = RegisterSimulated("cmd-reg-sim", "cmd-reg");
+  options.dicomOutputDirectory = "cmd-reg-dicom";
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg/result.json");
   EXPECT_TRUE(result.ok) << FailureCodes(result);
@@ -332,6 +338,25 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   EXPECT_LT(c[0], -4.0) << "correction moves the patient back";
   for (const char* file : { "drr_A.png", "drr_B.png", "mask_A.png", "mask_B.png", "entropy_A.png" })
     EXPECT_TRUE(Exists(std::string("cmd-reg/") + file)) << file;
+
+  // The DICOM Spatial Registration moves CT points where result.json's misalignment moves the
+  // patient in the room (GEOMETRY.md, written out here), within 0.01 mm.
+  const xp::CTSeriesInfo ct = xp::ScanCTSeries(PhantomCT());
+  const Eigen::Isometry3d inCT = xp::ReadSpatialRegistrationMatrix("cmd-reg-dicom/reg.dcm", ct.frameOfReferenceUID);
+  const xp::CTVolume volume = xp::ReadCTVolume(PhantomCT());
+  const Eigen::Vector3d centre = xp::ImageCenter(volume.image);
+  const Eigen::Isometry3d planned = xp::PlannedCTToRoom(xp::PatientPosition::HFS, centre, Eigen::Vector3d::Zero());
+  const xp::Pose& m = result.misalignment;
+  const double deg = M_PI / 180.0;
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(m.yaw * deg, Eigen::Vector3d::UnitZ()) *
+    Eigen::AngleAxisd(m.roll * deg, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(m.pitch * deg, Eigen::Vector3d::UnitX()))
+                              .toRotationMatrix();
+  for (const Eigen::Vector3d& offset : { Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(60, -40, 30), Eigen::Vector3d(-70, 50, -45) })
+  {
+    const Eigen::Vector3d p = centre + offset;
+    const Eigen::Vector3d expected = R * (planned * p) + m.translation; // room isocentre at 0
+    EXPECT_LT((planned * (inCT * p) - expected).norm(), 0.01) << offset.transpose();
+  }
 }
 
 TEST(Commands, RegisterRefusesImagesOfSomethingElse)
@@ -356,8 +381,11 @@ TEST(Commands, RegisterRefusesImagesOfSomethingElse)
     writer->SetFileName((std::string("cmd-reg-other/xray_") + name + ".png").c_str());
     writer->Write();
   }
-  const xp::RegisterOptions options = RegisterSimulated("cmd-reg-other", "cmd-reg-failed");
+  xp::RegisterOptions options = RegisterSimulated("cmd-reg-other", "cmd-reg-failed");
+  options.dicomOutputDirectory = "cmd-reg-failed-dicom";
+  ASSERT_EQ(std::system("rm -rf cmd-reg-failed-dicom"), 0);
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
+  EXPECT_FALSE(Exists("cmd-reg-failed-dicom/reg.dcm")) << "a failed result is never written as a REG";
   const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg-failed/result.json");
   EXPECT_FALSE(result.ok);
   EXPECT_FALSE(result.failures.empty()) << "a failure says why";

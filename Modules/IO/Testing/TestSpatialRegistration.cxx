@@ -1,0 +1,147 @@
+// The DICOM Spatial Registration (REG) of a result: valid by dciodvfy, linked to the CT, and its
+// matrix moves CT points as the misalignment (GEOMETRY.md) moves the patient in the room.
+#include "xpDICOMSeries.h"
+#include "xpError.h"
+#include "xpDICOMSeriesWriter.h"
+#include "xpPose.h"
+#include "xpSpatialRegistration.h"
+#include "xpTestFolders.h"
+
+#include <gdcmReader.h>
+#include <gdcmSequenceOfItems.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <memory>
+#include <sstream>
+
+using xp::testing::FreshFolder;
+
+namespace
+{
+
+xp::CTVolumeData SmallCT()
+{
+  xp::CTVolumeData v;
+  v.dimensions = { 8, 6, 5 };
+  v.spacing = { 1.0, 1.0, 2.0 };
+  v.origin = { -4.0, -3.0, 100.0 };
+  v.hounsfield.assign(8 * 6 * 5, 0.0f);
+  return v;
+}
+
+std::string Text(const gdcm::DataSet& ds, uint16_t group, uint16_t element)
+{
+  const gdcm::Tag tag(group, element);
+  if (!ds.FindDataElement(tag) || !ds.GetDataElement(tag).GetByteValue())
+    return "";
+  const gdcm::ByteValue* v = ds.GetDataElement(tag).GetByteValue();
+  std::string text(v->GetPointer(), v->GetLength());
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\0'))
+    text.pop_back();
+  return text;
+}
+
+const gdcm::DataSet& Item(const gdcm::DataSet& ds, uint16_t group, uint16_t element, size_t index)
+{
+  const gdcm::SmartPointer<gdcm::SequenceOfItems> sequence =
+    ds.GetDataElement(gdcm::Tag(group, element)).GetValueAsSQ();
+  return sequence->GetItem(index).GetNestedDataSet();
+}
+
+/** Room point of planned CT point p moved by the misalignment, written out from GEOMETRY.md. */
+Eigen::Vector3d MovedInRoom(const Eigen::Isometry3d& planned, const xp::Pose& m, const Eigen::Vector3d& iso,
+  const Eigen::Vector3d& p)
+{
+  const double deg = M_PI / 180.0;
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(m.yaw * deg, Eigen::Vector3d::UnitZ()) *
+    Eigen::AngleAxisd(m.roll * deg, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(m.pitch * deg, Eigen::Vector3d::UnitX()))
+                              .toRotationMatrix();
+  return R * (planned * p - iso) + iso + m.translation;
+}
+
+} // namespace
+
+TEST(SpatialRegistration, MatrixMovesCTPointsAsTheMisalignmentMovesThePatient)
+{
+  const Eigen::Vector3d iso(0.0, 0.0, 0.0), isoInCT(10.0, -20.0, 130.0);
+  const Eigen::Isometry3d planned = xp::PlannedCTToRoom(xp::PatientPosition::HFS, isoInCT, iso);
+  xp::Pose m;
+  m.translation = Eigen::Vector3d(4.0, -7.5, 2.25);
+  m.pitch = 1.5;
+  m.roll = -2.0;
+  m.yaw = 3.0;
+  const Eigen::Isometry3d inCT = xp::MisalignmentInCT(planned, m, iso);
+  for (const Eigen::Vector3d& p : { isoInCT, Eigen::Vector3d(60.0, 30.0, 90.0), Eigen::Vector3d(-80.0, 45.0, 170.0) })
+  {
+    // The anatomy at planned CT point p, found at CT point inCT * p, sits in the room where the
+    // misalignment moved it.
+    EXPECT_LT((planned * (inCT * p) - MovedInRoom(planned, m, iso, p)).norm(), 1e-9) << p.transpose();
+  }
+  // The same rotation angle as the misalignment's, about the CT point at the isocentre.
+  const double angle = Eigen::AngleAxisd(inCT.linear()).angle();
+  EXPECT_NEAR(angle, Eigen::AngleAxisd(m.ToTransform(iso).linear()).angle(), 1e-12);
+}
+
+TEST(SpatialRegistration, WritesAValidREGLinkedToTheCT)
+{
+  const std::string dir = FreshFolder("reg");
+  ASSERT_EQ(std::system(("mkdir -p " + dir + "/ct").c_str()), 0);
+  xp::CTSeriesWriteOptions options;
+  options.patientName = "DOE^JANE";
+  options.patientID = "P123";
+  xp::WriteCTSeries(SmallCT(), dir + "/ct", options);
+  const xp::CTSeriesInfo ct = xp::ScanCTSeries(dir + "/ct");
+  ASSERT_FALSE(ct.frameOfReferenceUID.empty());
+  ASSERT_EQ(ct.sopInstanceUIDs.size(), 5u);
+
+  xp::SpatialRegistration registration;
+  registration.ctToSession = Eigen::Translation3d(1.0, -2.0, 3.5) * Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitZ());
+  registration.contentDescription = "estimated misalignment; table correction = its inverse";
+  const std::string uid = xp::WriteSpatialRegistration(ct, registration, dir + "/reg.dcm");
+  EXPECT_EQ(uid.rfind("2.25.", 0), 0u);
+  EXPECT_LE(uid.size(), 64u);
+
+  gdcm::Reader reader;
+  reader.SetFileName((dir + "/reg.dcm").c_str());
+  ASSERT_TRUE(reader.Read());
+  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  EXPECT_EQ(Text(ds, 0x0008, 0x0016), "1.2.840.10008.5.1.4.1.1.66.1");
+  EXPECT_EQ(Text(ds, 0x0008, 0x0060), "REG");
+  EXPECT_EQ(Text(ds, 0x0010, 0x0010), "DOE^JANE");
+  EXPECT_EQ(Text(ds, 0x0010, 0x0020), "P123");
+  EXPECT_EQ(Text(ds, 0x0020, 0x000d), ct.studyInstanceUID);
+  EXPECT_NE(Text(ds, 0x0020, 0x000e), ct.seriesInstanceUID);
+  const std::string session = Text(ds, 0x0020, 0x0052);
+  EXPECT_NE(session, ct.frameOfReferenceUID);
+  // Registration Sequence: the session (identity), then the CT's Frame of Reference with the matrix.
+  const gdcm::DataSet& fixed = Item(ds, 0x0070, 0x0308, 1);
+  const gdcm::DataSet& moving = Item(ds, 0x0070, 0x0308, 2);
+  EXPECT_EQ(Text(fixed, 0x0020, 0x0052), session);
+  EXPECT_EQ(Text(moving, 0x0020, 0x0052), ct.frameOfReferenceUID);
+  const gdcm::DataSet& matrixItem = Item(Item(moving, 0x0070, 0x0309, 1), 0x0070, 0x030a, 1);
+  EXPECT_EQ(Text(matrixItem, 0x0070, 0x030c), "RIGID");
+  const Eigen::Matrix4d m = xp::ReadSpatialRegistrationMatrix(dir + "/reg.dcm", ct.frameOfReferenceUID).matrix();
+  EXPECT_LT((m - registration.ctToSession.matrix()).cwiseAbs().maxCoeff(), 1e-9) << m;
+  EXPECT_TRUE(xp::ReadSpatialRegistrationMatrix(dir + "/reg.dcm", session).isApprox(Eigen::Isometry3d::Identity()));
+  EXPECT_THROW(xp::ReadSpatialRegistrationMatrix(dir + "/reg.dcm", "1.2.3"), xp::InputError);
+  EXPECT_THROW(xp::ReadSpatialRegistrationMatrix(ct.files.front(), ct.frameOfReferenceUID), xp::InputError);
+  // Every CT image is referenced.
+  const gdcm::DataSet& series = Item(ds, 0x0008, 0x1115, 1);
+  EXPECT_EQ(Text(series, 0x0020, 0x000e), ct.seriesInstanceUID);
+  EXPECT_EQ(series.GetDataElement(gdcm::Tag(0x0008, 0x114a)).GetValueAsSQ()->GetNumberOfItems(), 5u);
+
+  if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
+  {
+    GTEST_SKIP() << "dciodvfy (Debian package dicom3tools) not installed: the IOD check is skipped";
+  }
+  const std::string log = dir + "/dciodvfy.txt";
+  std::system(("dciodvfy " + dir + "/reg.dcm > " + log + " 2>&1").c_str());
+  std::ifstream in(log);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str().find("Error"), std::string::npos) << text.str();
+}

@@ -1,0 +1,282 @@
+#include "xpSpatialRegistration.h"
+
+#include "xpError.h"
+
+#include <gdcmReader.h>
+#include <gdcmSequenceOfItems.h>
+#include <gdcmTrace.h>
+#include <gdcmWriter.h>
+
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <cmath>
+#include <cstdlib>
+
+namespace xp
+{
+
+namespace
+{
+
+const char* SpatialRegistrationStorage = "1.2.840.10008.5.1.4.1.1.66.1";
+
+/** A text element; UI values are padded with NUL, others with a space, to even length. */
+gdcm::DataElement Text(uint16_t group, uint16_t element, gdcm::VR vr, std::string value)
+{
+  if (value.size() % 2)
+    value += vr == gdcm::VR::UI ? '\0' : ' ';
+  gdcm::DataElement de(gdcm::Tag(group, element));
+  de.SetVR(vr);
+  de.SetByteValue(value.data(), static_cast<uint32_t>(value.size()));
+  return de;
+}
+
+void Put(gdcm::DataSet& ds, uint16_t group, uint16_t element, gdcm::VR vr, const std::string& value)
+{
+  ds.Replace(Text(group, element, vr, value));
+}
+
+/** A sequence element holding `items` (each a data set). */
+void PutSequence(gdcm::DataSet& ds, uint16_t group, uint16_t element, const std::vector<gdcm::DataSet>& items)
+{
+  gdcm::SmartPointer<gdcm::SequenceOfItems> sequence = new gdcm::SequenceOfItems;
+  sequence->SetLengthToUndefined();
+  for (const gdcm::DataSet& nested : items)
+  {
+    gdcm::Item item;
+    item.SetVLToUndefined();
+    item.SetNestedDataSet(nested);
+    sequence->AddItem(item);
+  }
+  gdcm::DataElement de(gdcm::Tag(group, element));
+  de.SetVR(gdcm::VR::SQ);
+  de.SetValue(*sequence);
+  de.SetVLToUndefined();
+  ds.Replace(de);
+}
+
+/** A decimal string of at most 16 characters. */
+std::string DS(double value)
+{
+  char text[32];
+  for (int digits = 12; digits > 1; --digits)
+  {
+    std::snprintf(text, sizeof(text), "%.*g", digits, value == 0.0 ? 0.0 : value);
+    if (std::string(text).size() <= 16)
+      break;
+  }
+  return text;
+}
+
+/** The rigid matrix item of a Registration Sequence item, row-major. */
+gdcm::DataSet MatrixRegistration(const Eigen::Isometry3d& transform)
+{
+  std::string values;
+  const Eigen::Matrix4d m = transform.matrix();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      values += (values.empty() ? "" : "\\") + DS(m(r, c));
+  gdcm::DataSet matrix;
+  Put(matrix, 0x3006, 0x00c6, gdcm::VR::DS, values);  // Frame of Reference Transformation Matrix
+  Put(matrix, 0x0070, 0x030c, gdcm::VR::CS, "RIGID"); // Frame of Reference Transformation Matrix Type
+  gdcm::DataSet registration;
+  PutSequence(registration, 0x0070, 0x030a, { matrix }); // Matrix Sequence
+  PutSequence(registration, 0x0070, 0x030d, {});         // Registration Type Code Sequence (type 2)
+  return registration;
+}
+
+/** A Registration Sequence item: `frameOfReference` into the REG's, and the images it applies to. */
+gdcm::DataSet RegistrationItem(
+  const std::string& frameOfReference, const Eigen::Isometry3d& transform, const std::vector<gdcm::DataSet>& images = {})
+{
+  gdcm::DataSet item;
+  Put(item, 0x0020, 0x0052, gdcm::VR::UI, frameOfReference);
+  if (!images.empty())
+    PutSequence(item, 0x0008, 0x1140, images); // Referenced Image Sequence
+  PutSequence(item, 0x0070, 0x0309, { MatrixRegistration(transform) }); // Matrix Registration Sequence
+  return item;
+}
+
+/** The value of `tag` in `ds` as stored (with its padding), empty when absent. */
+std::string Value(const gdcm::DataSet& ds, const gdcm::Tag& tag)
+{
+  if (!ds.FindDataElement(tag))
+    return "";
+  const gdcm::ByteValue* value = ds.GetDataElement(tag).GetByteValue();
+  return value ? std::string(value->GetPointer(), value->GetLength()) : std::string();
+}
+
+std::string Trimmed(std::string text)
+{
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\0'))
+    text.pop_back();
+  return text;
+}
+
+} // namespace
+
+std::string NewDICOMUID()
+{
+  // 2.25. followed by a 128-bit random number (a version 4 UUID) in decimal, at most 39 digits.
+  std::random_device device;
+  unsigned __int128 value = 0;
+  for (int i = 0; i < 4; ++i)
+    value = (value << 32) | device();
+  value &= ~(static_cast<unsigned __int128>(0xf000) << 64); // version 4: bits 76-79 = 0100
+  value |= static_cast<unsigned __int128>(0x4000) << 64;
+  value &= ~(static_cast<unsigned __int128>(0xc) << 60);    // variant: bits 62-63 = 10
+  value |= static_cast<unsigned __int128>(0x8) << 60;
+  std::string digits;
+  do
+  {
+    digits.insert(digits.begin(), static_cast<char>('0' + static_cast<int>(value % 10)));
+    value /= 10;
+  } while (value != 0);
+  return "2.25." + digits;
+}
+
+std::string WriteSpatialRegistration(const CTSeriesInfo& ct, const SpatialRegistration& registration, const std::string& path)
+{
+  if (ct.files.empty())
+    throw InputError(ct.directory, "no CT images to refer to");
+  const std::string& first = ct.files.front();
+  if (ct.studyInstanceUID.empty())
+    throw InputError(first, "Study Instance UID (0020,000D) missing: the REG must join the CT's study");
+  if (ct.frameOfReferenceUID.empty())
+    throw InputError(first, "Frame of Reference UID (0020,0052) missing: the REG registers the CT's Frame of Reference");
+  gdcm::Trace::WarningOff();
+  gdcm::Reader reader;
+  reader.SetFileName(first.c_str());
+  if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010)))
+    throw InputError(first, "unreadable DICOM header");
+  const gdcm::DataSet& source = reader.GetFile().GetDataSet();
+
+  gdcm::Writer writer;
+  gdcm::DataSet& ds = writer.GetFile().GetDataSet();
+  // Patient and General Study, as the CT has them (type 2 attributes empty when it has none).
+  const uint16_t copied[][2] = { { 0x0008, 0x0005 }, { 0x0008, 0x0020 }, { 0x0008, 0x0030 }, { 0x0008, 0x0050 },
+    { 0x0008, 0x0090 }, { 0x0008, 0x1030 }, { 0x0010, 0x0010 }, { 0x0010, 0x0020 }, { 0x0010, 0x0030 },
+    { 0x0010, 0x0040 }, { 0x0020, 0x0010 } };
+  const gdcm::VR copiedVR[] = { gdcm::VR::CS, gdcm::VR::DA, gdcm::VR::TM, gdcm::VR::SH, gdcm::VR::PN, gdcm::VR::LO,
+    gdcm::VR::PN, gdcm::VR::LO, gdcm::VR::DA, gdcm::VR::CS, gdcm::VR::SH };
+  for (size_t i = 0; i < sizeof(copied) / sizeof(copied[0]); ++i)
+  {
+    const gdcm::Tag tag(copied[i][0], copied[i][1]);
+    if (tag == gdcm::Tag(0x0008, 0x0005) && !source.FindDataElement(tag))
+      continue; // the default repertoire
+    Put(ds, copied[i][0], copied[i][1], copiedVR[i], Trimmed(Value(source, tag)));
+  }
+  Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
+
+  // Series, equipment, the session's Frame of Reference and the instance.
+  const std::time_t now = std::time(nullptr);
+  std::tm local{};
+  localtime_r(&now, &local);
+  char date[16], time[16];
+  std::strftime(date, sizeof(date), "%Y%m%d", &local);
+  std::strftime(time, sizeof(time), "%H%M%S", &local);
+  const std::string sopInstanceUID = NewDICOMUID(), sessionFrame = NewDICOMUID();
+  Put(ds, 0x0008, 0x0016, gdcm::VR::UI, SpatialRegistrationStorage);
+  Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
+  Put(ds, 0x0008, 0x0012, gdcm::VR::DA, date); // Instance Creation Date
+  Put(ds, 0x0008, 0x0013, gdcm::VR::TM, time);
+  Put(ds, 0x0008, 0x0023, gdcm::VR::DA, date); // Content Date
+  Put(ds, 0x0008, 0x0033, gdcm::VR::TM, time);
+  Put(ds, 0x0008, 0x0060, gdcm::VR::CS, "REG");
+  Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
+  Put(ds, 0x0008, 0x103e, gdcm::VR::LO, registration.seriesDescription.substr(0, 64));
+  Put(ds, 0x0018, 0x1020, gdcm::VR::LO, "xpose");
+  Put(ds, 0x0020, 0x000e, gdcm::VR::UI, NewDICOMUID());
+  Put(ds, 0x0020, 0x0011, gdcm::VR::IS, "1");
+  Put(ds, 0x0020, 0x0013, gdcm::VR::IS, "1");
+  Put(ds, 0x0020, 0x0052, gdcm::VR::UI, sessionFrame);
+  Put(ds, 0x0020, 0x0060, gdcm::VR::CS, ""); // Laterality: not a paired structure
+  Put(ds, 0x0020, 0x1040, gdcm::VR::LO, "");
+  Put(ds, 0x0070, 0x0080, gdcm::VR::CS, registration.contentLabel.substr(0, 16));
+  Put(ds, 0x0070, 0x0081, gdcm::VR::LO, registration.contentDescription.substr(0, 64));
+  Put(ds, 0x0070, 0x0084, gdcm::VR::PN, registration.creator);
+
+  // Every CT image: the registration applies to them, and the instance references them.
+  std::vector<gdcm::DataSet> instances;
+  for (const std::string& uid : ct.sopInstanceUIDs)
+  {
+    gdcm::DataSet instance;
+    Put(instance, 0x0008, 0x1150, gdcm::VR::UI, ct.sopClassUID);
+    Put(instance, 0x0008, 0x1155, gdcm::VR::UI, uid);
+    instances.push_back(instance);
+  }
+  // The registration: the session's own Frame of Reference, and the CT's into it.
+  PutSequence(ds, 0x0070, 0x0308,
+    { RegistrationItem(sessionFrame, Eigen::Isometry3d::Identity()),
+      RegistrationItem(ct.frameOfReferenceUID, registration.ctToSession, instances) });
+  // Common Instance Reference: the CT's series, in the same study.
+  gdcm::DataSet series;
+  PutSequence(series, 0x0008, 0x114a, instances);
+  Put(series, 0x0020, 0x000e, gdcm::VR::UI, ct.seriesInstanceUID);
+  PutSequence(ds, 0x0008, 0x1115, { series });
+
+  writer.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
+  writer.SetFileName(path.c_str());
+  if (!writer.Write())
+  {
+    std::remove(path.c_str());
+    throw Error(path, "cannot write the DICOM Spatial Registration");
+  }
+  return sopInstanceUID;
+}
+
+Eigen::Isometry3d ReadSpatialRegistrationMatrix(const std::string& path, const std::string& frameOfReferenceUID)
+{
+  gdcm::Reader reader;
+  reader.SetFileName(path.c_str());
+  if (!reader.Read())
+    throw InputError(path, "not a readable DICOM file");
+  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  if (Trimmed(Value(ds, gdcm::Tag(0x0008, 0x0016))) != SpatialRegistrationStorage)
+    throw InputError(path, "SOP Class UID (0008,0016) is not Spatial Registration Storage");
+  const gdcm::Tag registrationTag(0x0070, 0x0308);
+  if (!ds.FindDataElement(registrationTag) || !ds.GetDataElement(registrationTag).GetValueAsSQ())
+    throw InputError(path, "Registration Sequence (0070,0308) missing");
+  const gdcm::SmartPointer<gdcm::SequenceOfItems> items = ds.GetDataElement(registrationTag).GetValueAsSQ();
+  for (size_t i = 1; i <= items->GetNumberOfItems(); ++i)
+  {
+    const gdcm::DataSet& item = items->GetItem(i).GetNestedDataSet();
+    if (Trimmed(Value(item, gdcm::Tag(0x0020, 0x0052))) != frameOfReferenceUID)
+      continue;
+    const gdcm::Tag matrixRegistration(0x0070, 0x0309), matrixSequence(0x0070, 0x030a);
+    if (!item.FindDataElement(matrixRegistration) || !item.GetDataElement(matrixRegistration).GetValueAsSQ() ||
+      item.GetDataElement(matrixRegistration).GetValueAsSQ()->GetNumberOfItems() < 1)
+      throw InputError(path, "Matrix Registration Sequence (0070,0309) missing for Frame of Reference " + frameOfReferenceUID);
+    const gdcm::DataSet& registration = item.GetDataElement(matrixRegistration).GetValueAsSQ()->GetItem(1).GetNestedDataSet();
+    if (!registration.FindDataElement(matrixSequence) || !registration.GetDataElement(matrixSequence).GetValueAsSQ() ||
+      registration.GetDataElement(matrixSequence).GetValueAsSQ()->GetNumberOfItems() != 1)
+      throw InputError(path, "Matrix Sequence (0070,030A): expected one rigid matrix");
+    const gdcm::DataSet& matrix = registration.GetDataElement(matrixSequence).GetValueAsSQ()->GetItem(1).GetNestedDataSet();
+    std::stringstream text(Trimmed(Value(matrix, gdcm::Tag(0x3006, 0x00c6))));
+    Eigen::Matrix4d m;
+    std::string word;
+    int count = 0;
+    while (std::getline(text, word, '\\') && count < 16)
+    {
+      char* end = nullptr;
+      const double value = std::strtod(word.c_str(), &end);
+      if (end == word.c_str() || !std::isfinite(value))
+        break;
+      m(count / 4, count % 4) = value;
+      ++count;
+    }
+    if (count != 16 || (m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-6 ||
+      (m.topLeftCorner<3, 3>() * m.topLeftCorner<3, 3>().transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-4)
+      throw InputError(path, "Frame of Reference Transformation Matrix (3006,00C6): expected 16 numbers of a rigid transform");
+    Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+    transform.linear() = m.topLeftCorner<3, 3>();
+    transform.translation() = m.topRightCorner<3, 1>();
+    return transform;
+  }
+  throw InputError(path, "Registration Sequence (0070,0308) holds no item for Frame of Reference " + frameOfReferenceUID);
+}
+
+} // namespace xp
