@@ -50,6 +50,7 @@ struct DRROptions
   double muWater = WaterAttenuationPerMM; ///< 1/mm
   int threads = 0;            ///< 0 = all cores
   std::string outputDirectory;
+  std::string dicomOutputDirectory; ///< when set, the DRRs as RT Images too (needs a DICOM CT)
 };
 
 struct BenchOptions
@@ -152,6 +153,7 @@ struct GeometryOptions
   std::vector<std::string> projectionMatrices; ///< one text file per imager
   std::vector<std::string> intrinsics;         ///< or K files, one per imager
   std::vector<std::string> extrinsics;         ///< with [R | t] files, one per imager
+  std::vector<std::string> dicom;              ///< or RT Images, one per imager (their own tags)
   std::vector<std::string> names;              ///< the imagers' names; empty = A, B, ...
   std::string pixelSpacing;                    ///< "MM" or "COLUMN_MM,ROW_MM"
   std::string size;                            ///< "COLSxROWS"

@@ -3,7 +3,10 @@
 
 #include "xpError.h"
 #include "xpImageIO.h"
+#include "xpImageGeometry.h"
+#include "xpImageRows.h"
 #include "xpPose.h"
+#include "xpSpatialRegistration.h"
 
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -17,6 +20,7 @@
 #include <cstdio>
 #include <exception>
 #include <functional>
+#include <optional>
 #include <sstream>
 #include <sys/stat.h>
 
@@ -134,7 +138,8 @@ std::vector<vtkSmartPointer<vtkImageData>> ReadViewMasks(
  * made here: VTK objects are created and released on this thread alone.
  */
 void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
-  const std::vector<vtkSmartPointer<vtkImageData>>& masks, StagedOutputDirectory& output)
+  const std::vector<vtkSmartPointer<vtkImageData>>& masks, StagedOutputDirectory& output,
+  const std::function<void()>& afterEachView)
 {
   std::vector<vtkSmartPointer<vtkImageData>> images;
   std::vector<std::function<void()>> writes;
@@ -160,6 +165,7 @@ void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
     writes.emplace_back([&output, stem, image = made[1]] { WritePNG(image, output.Path(stem + "_display.png")); });
     writes.emplace_back([&output, stem, rendered, image = made[2]]
       { WriteDetectorMetaImage(image, rendered, output.Path(stem + ".mha")); });
+    afterEachView();
     const double seconds = drr->GetLastRenderSeconds();
     if (v == 0)
     {
@@ -213,6 +219,31 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
   return setup;
 }
 
+CTSeriesInfo DICOMSeriesForOutput(const std::string& ct, const std::string& series, const std::string& option)
+{
+  struct stat status;
+  if (stat(ct.c_str(), &status) != 0 || !S_ISDIR(status.st_mode))
+    throw InputError(option, "needs the CT as a DICOM series (a folder): DICOM output refers to its study and Frame of Reference");
+  CTSeriesInfo info = ScanCTSeries(ct, series);
+  if (info.studyInstanceUID.empty())
+    throw InputError(info.files.front(), "Study Instance UID (0020,000D) missing: " + option + " cannot join the CT's study");
+  if (info.frameOfReferenceUID.empty())
+    throw InputError(info.files.front(), "Frame of Reference UID (0020,0052) missing: " + option + " cannot refer to it");
+  return info;
+}
+
+RTImageDRR RTImageOfLastDRR(const DRRSetup& setup, const std::string& description)
+{
+  RTImageDRR image;
+  image.view = setup.filter->GetOutputView();
+  image.roomIsocenter = setup.geometry.isocenter;
+  image.isocenterInCT = setup.patient.IsocenterInCT(ImageCenter(setup.ct.image));
+  image.patientPosition = setup.ct.patientPosition;
+  image.pixels = RowsTopFirst<uint16_t>(setup.filter->GetOutput(0));
+  image.description = description;
+  return image;
+}
+
 int RunDRR(const DRROptions& options)
 {
   UseThreads(options.threads);
@@ -230,15 +261,32 @@ int RunDRR(const DRROptions& options)
   drr->SetMisalignment(pose);
   drr->SetOutputSize(size.first, size.second);
 
-  // Masks are checked for every view before anything is rendered or written.
+  // Masks and the DICOM output's CT are checked before anything is rendered or written.
   const std::vector<vtkSmartPointer<vtkImageData>> masks = ReadViewMasks(options.maskDirectory, setup.geometry, size);
+  std::optional<CTSeriesInfo> dicomCT;
+  if (!options.dicomOutputDirectory.empty())
+  {
+    StagedOutputDirectory::CheckWritable(options.dicomOutputDirectory);
+    dicomCT = DICOMSeriesForOutput(options.ct, options.series, "--dicom-out");
+  }
   int dims[3];
   setup.ct.image->GetDimensions(dims);
   std::printf("CT %s: %d x %d x %d voxels, patient position %s; read in %.2f s\n", options.ct.c_str(), dims[0], dims[1],
     dims[2], setup.ct.patientPosition.c_str(), readSeconds);
   std::printf("misalignment: %s\n", pose.ToString().c_str());
   StagedOutputDirectory output(options.outputDirectory);
-  RenderAndWriteViews(drr, setup.geometry, masks, output);
+  std::vector<RTImageDRR> rtImages;
+  RenderAndWriteViews(drr, setup.geometry, masks, output,
+    [&] { rtImages.push_back(RTImageOfLastDRR(setup, "DRR by xpose, patient misalignment " + pose.ToString())); });
+  if (dicomCT)
+  {
+    StagedOutputDirectory dicomOutput(options.dicomOutputDirectory);
+    const std::string series = NewDICOMUID();
+    for (size_t v = 0; v < rtImages.size(); ++v)
+      WriteRTImageDRR(*dicomCT, rtImages[v], series, static_cast<int>(v) + 1, dicomOutput.Path("drr_" + rtImages[v].view.name + ".dcm"));
+    dicomOutput.Commit();
+    std::printf("wrote the DRRs as RT Images (drr_NAME.dcm) to %s\n", options.dicomOutputDirectory.c_str());
+  }
   output.Commit();
   std::printf("wrote drr_NAME.png (16-bit, 0..4095), drr_NAME_display.png (8-bit, log-windowed for viewing) and drr_NAME.mha "
               "(float transmission) to %s\n",

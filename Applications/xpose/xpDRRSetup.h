@@ -3,6 +3,8 @@
 #define xpDRRSetup_h
 
 #include "vtkXPDRRFilter.h"
+#include "xpDICOMSeries.h"
+#include "xpRTImage.h"
 #include "xpStereoGeometry.h"
 #include "xpVolumeIO.h"
 
@@ -27,6 +29,15 @@ struct DRRSetup
  */
 DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& geometryPath,
   const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize);
+
+/**
+ * The CT series that DICOM output refers to, checked before any work: `option` (--dicom-out)
+ * needs the CT as a DICOM series with a Study Instance UID and a Frame of Reference UID.
+ */
+CTSeriesInfo DICOMSeriesForOutput(const std::string& ct, const std::string& series, const std::string& option);
+
+/** The RT Image of the 12-bit DRR the filter rendered last (output 0) for its output view. */
+RTImageDRR RTImageOfLastDRR(const DRRSetup& setup, const std::string& description);
 
 } // namespace xp
 

@@ -3,6 +3,7 @@
 
 #include "xpError.h"
 #include "xpProjectionMatrix.h"
+#include "xpRTImage.h"
 #include "xpStereoGeometry.h"
 
 #include <cmath>
@@ -27,13 +28,33 @@ Eigen::Vector2d ParseSpacing(const std::string& text)
   return spacing;
 }
 
-} // namespace
+/** The imagers of --dicom: each RT Image's own tags, named by --names or its RT Image Label. */
+StereoGeometry GeometryFromRTImages(const GeometryOptions& options)
+{
+  if (!options.projectionMatrices.empty() || !options.intrinsics.empty() || !options.extrinsics.empty())
+    throw InputError("--dicom", "give RT Images or projection matrices or pinhole calibrations, not several");
+  if (!options.pixelSpacing.empty() || !options.size.empty())
+    throw InputError("--dicom", "RT Images carry their own pixel spacing and size: leave out --pixel-spacing and --size");
+  if (!options.names.empty() && options.names.size() != options.dicom.size())
+    throw InputError("--names", "give one name per RT Image (" + std::to_string(options.dicom.size()) + "), got " +
+        std::to_string(options.names.size()));
+  StereoGeometry geometry;
+  geometry.name = "from RT Images";
+  geometry.isocenter = ParsePoint(options.isocenter, "--isocenter");
+  for (size_t v = 0; v < options.dicom.size(); ++v)
+  {
+    geometry.views.push_back(ReadRTImageView(options.dicom[v], geometry.isocenter));
+    if (!options.names.empty())
+      geometry.views.back().name = options.names[v];
+  }
+  return geometry;
+}
 
-int RunGeometry(const GeometryOptions& options)
+StereoGeometry GeometryFromMatrices(const GeometryOptions& options)
 {
   const bool pinhole = !options.intrinsics.empty() || !options.extrinsics.empty();
   if (pinhole == !options.projectionMatrices.empty())
-    throw InputError("--projection-matrix", "give either projection matrices or --intrinsics with --extrinsics, one per imager");
+    throw InputError("--projection-matrix", "give RT Images (--dicom), projection matrices or --intrinsics with --extrinsics, one per imager");
   if (pinhole && options.intrinsics.size() != options.extrinsics.size())
     throw InputError("--extrinsics", "give one [R | t] file per --intrinsics file (" + std::to_string(options.intrinsics.size()) +
         "), got " + std::to_string(options.extrinsics.size()));
@@ -41,6 +62,8 @@ int RunGeometry(const GeometryOptions& options)
   if (!options.names.empty() && options.names.size() != files.size())
     throw InputError("--names", "give one name per projection matrix (" + std::to_string(files.size()) + "), got " +
         std::to_string(options.names.size()));
+  if (options.pixelSpacing.empty() || options.size.empty())
+    throw InputError(options.pixelSpacing.empty() ? "--pixel-spacing" : "--size", "is needed with projection matrices");
   const Eigen::Vector2d spacing = ParseSpacing(options.pixelSpacing);
   const auto [columns, rows] = ParseSize(options.size, "--size");
   StereoGeometry geometry;
@@ -53,6 +76,14 @@ int RunGeometry(const GeometryOptions& options)
       pinhole ? ReadPinholeCalibration(options.intrinsics[v], files[v]) : ReadProjectionMatrix(files[v]);
     geometry.views.push_back(ViewFromProjectionMatrix(projection, spacing, { columns, rows }, geometry.isocenter, name, files[v]));
   }
+  return geometry;
+}
+
+} // namespace
+
+int RunGeometry(const GeometryOptions& options)
+{
+  const StereoGeometry geometry = options.dicom.empty() ? GeometryFromMatrices(options) : GeometryFromRTImages(options);
   // The views must make a geometry xpose can use (central rays on the panels, names distinct).
   ValidateGeometry(geometry, options.output);
   WriteStereoGeometry(geometry, options.output);

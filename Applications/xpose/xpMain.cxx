@@ -46,15 +46,18 @@ CLI::App* AddPhantomCommand(CLI::App& app, xp::PhantomOptions& options)
 
 CLI::App* AddGeometryCommand(CLI::App& app, xp::GeometryOptions& options)
 {
-  CLI::App* geometryCommand = app.add_subcommand("geometry", "Write a geometry file from the imagers' 3x4 projection matrices or pinhole calibrations");
+  CLI::App* geometryCommand = app.add_subcommand("geometry",
+    "Write a geometry file from the imagers' RT Images, 3x4 projection matrices or pinhole calibrations");
+  geometryCommand->add_option("--dicom", options.dicom,
+    "One DICOM RT Image per imager: the geometry from its tags (gantry angle and pitch, SAD, SID, receptor)");
   geometryCommand->add_option("--projection-matrix", options.projectionMatrices,
     "One text file per imager: 3 rows of 4 numbers, Room mm to (col, row) pixel-centre indices, row 0 at the top");
   geometryCommand->add_option("--intrinsics", options.intrinsics, "Or pinhole calibrations: K per imager (3 rows of 3, pixels)");
   geometryCommand->add_option("--extrinsics", options.extrinsics, "with [R | t] per imager (3 rows of 4, Room mm to camera)");
   geometryCommand->add_option("--names", options.names, "The imagers' names (default A, B, ...)")->delimiter(',');
-  geometryCommand->add_option("--pixel-spacing", options.pixelSpacing, "Detector pixel spacing, MM or COLUMN_MM,ROW_MM")
-    ->required();
-  geometryCommand->add_option("--size", options.size, "Detector COLSxROWS")->required();
+  geometryCommand->add_option("--pixel-spacing", options.pixelSpacing,
+    "Detector pixel spacing, MM or COLUMN_MM,ROW_MM (with matrices)");
+  geometryCommand->add_option("--size", options.size, "Detector COLSxROWS (with matrices)");
   geometryCommand->add_option("--isocenter", options.isocenter, "Room isocentre x,y,z (mm)")->capture_default_str();
   geometryCommand->add_option("--out", options.output, "The geometry JSON to write")->required();
   return geometryCommand;
@@ -77,6 +80,8 @@ CLI::App* AddDRRCommand(CLI::App& app, xp::DRROptions& options)
   drrCommand->add_option("--mu-water", options.muWater, "Attenuation of water, 1/mm")->capture_default_str();
   drrCommand->add_option("--threads", options.threads, "Threads (0: all cores)")->capture_default_str();
   drrCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
+  drrCommand->add_option("--dicom-out", options.dicomOutputDirectory,
+    "Also write the DRRs as DICOM RT Images (drr_NAME.dcm) here; needs a DICOM CT");
   return drrCommand;
 }
 

@@ -13,6 +13,7 @@
 #include "xpImageRows.h"
 #include "xpImageGeometry.h"
 #include "xpRegistrationRecord.h"
+#include "xpRTImage.h"
 #include "xpSpatialRegistration.h"
 
 #include <vtkCallbackCommand.h>
@@ -218,40 +219,53 @@ void WriteOutputs(vtkXPStereoRegistrationFilter* registration, const Registratio
   output.Commit();
 }
 
-/** The CT series a REG will refer to, checked before any work: --dicom-out needs a DICOM CT
- *  with a study and a Frame of Reference. */
+/** The CT series the DICOM output refers to, checked before any work. */
 std::optional<CTSeriesInfo> DICOMOutputCT(const RegisterOptions& options)
 {
   if (options.dicomOutputDirectory.empty())
     return std::nullopt;
   StagedOutputDirectory::CheckWritable(options.dicomOutputDirectory);
-  struct stat status;
-  if (stat(options.ct.c_str(), &status) != 0 || !S_ISDIR(status.st_mode))
-    throw InputError("--dicom-out", "needs the CT as a DICOM series (a folder): a REG refers to its Frame of Reference");
-  CTSeriesInfo ct = ScanCTSeries(options.ct, options.series);
-  if (ct.studyInstanceUID.empty())
-    throw InputError(ct.files.front(), "Study Instance UID (0020,000D) missing: --dicom-out cannot join the CT's study");
-  if (ct.frameOfReferenceUID.empty())
-    throw InputError(ct.files.front(), "Frame of Reference UID (0020,0052) missing: --dicom-out cannot refer to it");
-  return ct;
+  return DICOMSeriesForOutput(options.ct, options.series, "--dicom-out");
 }
 
-/** reg.dcm: the estimated misalignment in the CT's coordinates, from its Frame of Reference. */
+/**
+ * DICOM output: reg.dcm, the estimated misalignment in the CT's coordinates from its Frame of
+ * Reference (none for a failed result), and the DRRs at the planned set-up as RT Images, whole
+ * panels, the references a viewer shows beside the X-rays.
+ */
 void WriteDICOMResult(const CTSeriesInfo& ct, const StereoRegistrationResult& result, const RegistrationInputs& inputs,
   const std::string& directory)
 {
-  if (!result.ok)
-  {
-    std::printf("no DICOM Spatial Registration written: the registration failed\n");
-    return;
-  }
-  SpatialRegistration registration;
-  registration.ctToSession = MisalignmentInCT(inputs.planned, result.misalignment, inputs.setup.patient.roomIsocenter);
-  registration.contentDescription = "xpose: patient misalignment; table correction = inverse";
   StagedOutputDirectory output(directory);
-  const std::string uid = WriteSpatialRegistration(ct, registration, output.Path("reg.dcm"));
+  const DRRSetup& setup = inputs.setup;
+  const std::string series = NewDICOMUID();
+  for (size_t v = 0; v < setup.geometry.views.size(); ++v)
+  {
+    const XRayView& view = setup.geometry.views[v];
+    setup.filter->SetView(view);
+    setup.filter->SetMisalignment(Pose{});
+    setup.filter->SetInputData(1, nullptr);
+    setup.filter->SetOutputSize(0, 0);
+    setup.filter->Update();
+    WriteRTImageDRR(ct, RTImageOfLastDRR(setup, "DRR by xpose at the planned set-up"), series, static_cast<int>(v) + 1,
+      output.Path("drr_" + view.name + ".dcm"));
+  }
+  std::string written = "the DRRs as RT Images (drr_NAME.dcm)";
+  if (result.ok)
+  {
+    SpatialRegistration registration;
+    registration.ctToSession = MisalignmentInCT(inputs.planned, result.misalignment, setup.patient.roomIsocenter);
+    registration.contentDescription = "xpose: patient misalignment; table correction = inverse";
+    const std::string uid = WriteSpatialRegistration(ct, registration, output.Path("reg.dcm"));
+    written += " and the Spatial Registration " + uid + " (reg.dcm)";
+  }
+  else
+  {
+    written += "; no Spatial Registration: the registration failed";
+  }
+  output.ReplaceEarlier({ "reg.dcm", "drr_*.dcm" });
   output.Commit();
-  std::printf("DICOM Spatial Registration %s in %s/reg.dcm\n", uid.c_str(), directory.c_str());
+  std::printf("DICOM: %s in %s\n", written.c_str(), directory.c_str());
 }
 
 void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)

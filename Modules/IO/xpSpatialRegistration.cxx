@@ -1,5 +1,6 @@
 #include "xpSpatialRegistration.h"
 
+#include "xpDICOMDataSet.h"
 #include "xpError.h"
 
 #include <gdcmReader.h>
@@ -18,58 +19,15 @@
 namespace xp
 {
 
+using dicom::DS;
+using dicom::Put;
+using dicom::PutSequence;
+using dicom::Value;
+
 namespace
 {
 
 const char* SpatialRegistrationStorage = "1.2.840.10008.5.1.4.1.1.66.1";
-
-/** A text element; UI values are padded with NUL, others with a space, to even length. */
-gdcm::DataElement Text(uint16_t group, uint16_t element, gdcm::VR vr, std::string value)
-{
-  if (value.size() % 2)
-    value += vr == gdcm::VR::UI ? '\0' : ' ';
-  gdcm::DataElement de(gdcm::Tag(group, element));
-  de.SetVR(vr);
-  de.SetByteValue(value.data(), static_cast<uint32_t>(value.size()));
-  return de;
-}
-
-void Put(gdcm::DataSet& ds, uint16_t group, uint16_t element, gdcm::VR vr, const std::string& value)
-{
-  ds.Replace(Text(group, element, vr, value));
-}
-
-/** A sequence element holding `items` (each a data set). */
-void PutSequence(gdcm::DataSet& ds, uint16_t group, uint16_t element, const std::vector<gdcm::DataSet>& items)
-{
-  gdcm::SmartPointer<gdcm::SequenceOfItems> sequence = new gdcm::SequenceOfItems;
-  sequence->SetLengthToUndefined();
-  for (const gdcm::DataSet& nested : items)
-  {
-    gdcm::Item item;
-    item.SetVLToUndefined();
-    item.SetNestedDataSet(nested);
-    sequence->AddItem(item);
-  }
-  gdcm::DataElement de(gdcm::Tag(group, element));
-  de.SetVR(gdcm::VR::SQ);
-  de.SetValue(*sequence);
-  de.SetVLToUndefined();
-  ds.Replace(de);
-}
-
-/** A decimal string of at most 16 characters. */
-std::string DS(double value)
-{
-  char text[32];
-  for (int digits = 12; digits > 1; --digits)
-  {
-    std::snprintf(text, sizeof(text), "%.*g", digits, value == 0.0 ? 0.0 : value);
-    if (std::string(text).size() <= 16)
-      break;
-  }
-  return text;
-}
 
 /** The rigid matrix item of a Registration Sequence item, row-major. */
 gdcm::DataSet MatrixRegistration(const Eigen::Isometry3d& transform)
@@ -98,22 +56,6 @@ gdcm::DataSet RegistrationItem(
     PutSequence(item, 0x0008, 0x1140, images); // Referenced Image Sequence
   PutSequence(item, 0x0070, 0x0309, { MatrixRegistration(transform) }); // Matrix Registration Sequence
   return item;
-}
-
-/** The value of `tag` in `ds` as stored (with its padding), empty when absent. */
-std::string Value(const gdcm::DataSet& ds, const gdcm::Tag& tag)
-{
-  if (!ds.FindDataElement(tag))
-    return "";
-  const gdcm::ByteValue* value = ds.GetDataElement(tag).GetByteValue();
-  return value ? std::string(value->GetPointer(), value->GetLength()) : std::string();
-}
-
-std::string Trimmed(std::string text)
-{
-  while (!text.empty() && (text.back() == ' ' || text.back() == '\0'))
-    text.pop_back();
-  return text;
 }
 
 } // namespace
@@ -148,43 +90,18 @@ std::string WriteSpatialRegistration(const CTSeriesInfo& ct, const SpatialRegist
   if (ct.frameOfReferenceUID.empty())
     throw InputError(first, "Frame of Reference UID (0020,0052) missing: the REG registers the CT's Frame of Reference");
   gdcm::Trace::WarningOff();
-  gdcm::Reader reader;
-  reader.SetFileName(first.c_str());
-  if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010)))
-    throw InputError(first, "unreadable DICOM header");
-  const gdcm::DataSet& source = reader.GetFile().GetDataSet();
 
   gdcm::Writer writer;
   gdcm::DataSet& ds = writer.GetFile().GetDataSet();
-  // Patient and General Study, as the CT has them (type 2 attributes empty when it has none).
-  const uint16_t copied[][2] = { { 0x0008, 0x0005 }, { 0x0008, 0x0020 }, { 0x0008, 0x0030 }, { 0x0008, 0x0050 },
-    { 0x0008, 0x0090 }, { 0x0008, 0x1030 }, { 0x0010, 0x0010 }, { 0x0010, 0x0020 }, { 0x0010, 0x0030 },
-    { 0x0010, 0x0040 }, { 0x0020, 0x0010 } };
-  const gdcm::VR copiedVR[] = { gdcm::VR::CS, gdcm::VR::DA, gdcm::VR::TM, gdcm::VR::SH, gdcm::VR::PN, gdcm::VR::LO,
-    gdcm::VR::PN, gdcm::VR::LO, gdcm::VR::DA, gdcm::VR::CS, gdcm::VR::SH };
-  for (size_t i = 0; i < sizeof(copied) / sizeof(copied[0]); ++i)
-  {
-    const gdcm::Tag tag(copied[i][0], copied[i][1]);
-    if (tag == gdcm::Tag(0x0008, 0x0005) && !source.FindDataElement(tag))
-      continue; // the default repertoire
-    Put(ds, copied[i][0], copied[i][1], copiedVR[i], Trimmed(Value(source, tag)));
-  }
+  // Patient and General Study, as the CT has them.
+  dicom::CopyPatientAndStudy(first, ds);
   Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
 
   // Series, equipment, the session's Frame of Reference and the instance.
-  const std::time_t now = std::time(nullptr);
-  std::tm local{};
-  localtime_r(&now, &local);
-  char date[16], time[16];
-  std::strftime(date, sizeof(date), "%Y%m%d", &local);
-  std::strftime(time, sizeof(time), "%H%M%S", &local);
   const std::string sopInstanceUID = NewDICOMUID(), sessionFrame = NewDICOMUID();
   Put(ds, 0x0008, 0x0016, gdcm::VR::UI, SpatialRegistrationStorage);
   Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
-  Put(ds, 0x0008, 0x0012, gdcm::VR::DA, date); // Instance Creation Date
-  Put(ds, 0x0008, 0x0013, gdcm::VR::TM, time);
-  Put(ds, 0x0008, 0x0023, gdcm::VR::DA, date); // Content Date
-  Put(ds, 0x0008, 0x0033, gdcm::VR::TM, time);
+  dicom::PutNow(ds);
   Put(ds, 0x0008, 0x0060, gdcm::VR::CS, "REG");
   Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
   Put(ds, 0x0008, 0x103e, gdcm::VR::LO, registration.seriesDescription.substr(0, 64));
@@ -235,7 +152,7 @@ Eigen::Isometry3d ReadSpatialRegistrationMatrix(const std::string& path, const s
   if (!reader.Read())
     throw InputError(path, "not a readable DICOM file");
   const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
-  if (Trimmed(Value(ds, gdcm::Tag(0x0008, 0x0016))) != SpatialRegistrationStorage)
+  if (Value(ds, gdcm::Tag(0x0008, 0x0016)) != SpatialRegistrationStorage)
     throw InputError(path, "SOP Class UID (0008,0016) is not Spatial Registration Storage");
   const gdcm::Tag registrationTag(0x0070, 0x0308);
   if (!ds.FindDataElement(registrationTag) || !ds.GetDataElement(registrationTag).GetValueAsSQ())
@@ -244,7 +161,7 @@ Eigen::Isometry3d ReadSpatialRegistrationMatrix(const std::string& path, const s
   for (size_t i = 1; i <= items->GetNumberOfItems(); ++i)
   {
     const gdcm::DataSet& item = items->GetItem(i).GetNestedDataSet();
-    if (Trimmed(Value(item, gdcm::Tag(0x0020, 0x0052))) != frameOfReferenceUID)
+    if (Value(item, gdcm::Tag(0x0020, 0x0052)) != frameOfReferenceUID)
       continue;
     const gdcm::Tag matrixRegistration(0x0070, 0x0309), matrixSequence(0x0070, 0x030a);
     if (!item.FindDataElement(matrixRegistration) || !item.GetDataElement(matrixRegistration).GetValueAsSQ() ||
@@ -255,7 +172,7 @@ Eigen::Isometry3d ReadSpatialRegistrationMatrix(const std::string& path, const s
       registration.GetDataElement(matrixSequence).GetValueAsSQ()->GetNumberOfItems() != 1)
       throw InputError(path, "Matrix Sequence (0070,030A): expected one rigid matrix");
     const gdcm::DataSet& matrix = registration.GetDataElement(matrixSequence).GetValueAsSQ()->GetItem(1).GetNestedDataSet();
-    std::stringstream text(Trimmed(Value(matrix, gdcm::Tag(0x3006, 0x00c6))));
+    std::stringstream text(Value(matrix, gdcm::Tag(0x3006, 0x00c6)));
     Eigen::Matrix4d m;
     std::string word;
     int count = 0;

@@ -357,6 +357,26 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
     const Eigen::Vector3d expected = R * (planned * p) + m.translation; // room isocentre at 0
     EXPECT_LT((planned * (inCT * p) - expected).norm(), 0.01) << offset.transpose();
   }
+
+  // The DRRs as RT Images: `xpose geometry --dicom` gives the geometry file back from their tags
+  // alone (sources and panel centres within 0.1 mm, directions within 0.01 degree).
+  xp::GeometryOptions geometry;
+  geometry.dicom = { "cmd-reg-dicom/drr_A.dcm", "cmd-reg-dicom/drr_B.dcm" };
+  geometry.output = "cmd-reg-dicom-geometry.json";
+  std::remove(geometry.output.c_str());
+  ASSERT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(geometry); }), xp::ExitOk);
+  const xp::StereoGeometry reference = xp::ReadStereoGeometry(Geometry), read = xp::ReadStereoGeometry(geometry.output);
+  ASSERT_EQ(read.views.size(), 2u);
+  for (size_t v = 0; v < 2; ++v)
+  {
+    const xp::XRayView &a = read.views[v], &b = reference.views[v];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_LT((a.source - b.source).norm(), 0.1);
+    EXPECT_LT((a.detectorCenter - b.detectorCenter).norm(), 0.1);
+    EXPECT_LT(std::acos(std::min(1.0, a.rowDirection.dot(b.rowDirection))) * 180.0 / M_PI, 0.01);
+    EXPECT_LT(std::acos(std::min(1.0, a.columnDirection.dot(b.columnDirection))) * 180.0 / M_PI, 0.01);
+    EXPECT_EQ(a.size, b.size);
+  }
 }
 
 TEST(Commands, RegisterRefusesImagesOfSomethingElse)
@@ -386,6 +406,7 @@ TEST(Commands, RegisterRefusesImagesOfSomethingElse)
   ASSERT_EQ(std::system("rm -rf cmd-reg-failed-dicom"), 0);
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
   EXPECT_FALSE(Exists("cmd-reg-failed-dicom/reg.dcm")) << "a failed result is never written as a REG";
+  EXPECT_TRUE(Exists("cmd-reg-failed-dicom/drr_A.dcm")) << "the reference DRRs are written all the same";
   const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg-failed/result.json");
   EXPECT_FALSE(result.ok);
   EXPECT_FALSE(result.failures.empty()) << "a failure says why";

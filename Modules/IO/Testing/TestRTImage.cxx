@@ -1,0 +1,117 @@
+// DRRs as RT Images: valid by dciodvfy, linked to the CT, and their tags alone give back the
+// imager they were rendered for (source and panel centre within 0.1 mm, directions 0.01 degree).
+#include "xpReferenceGeometry.h"
+
+#include "xpDICOMSeries.h"
+#include "xpDICOMSeriesWriter.h"
+#include "xpError.h"
+#include "xpRTImage.h"
+#include "xpSpatialRegistration.h"
+#include "xpTestFolders.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sstream>
+
+using xp::testing::FreshFolder;
+
+namespace
+{
+
+double DegreesApart(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI;
+}
+
+xp::CTSeriesInfo SmallSeries(const std::string& dir)
+{
+  xp::CTVolumeData v;
+  v.dimensions = { 8, 6, 5 };
+  v.spacing = { 1.0, 1.0, 2.0 };
+  v.origin = { -4.0, -3.0, 100.0 };
+  v.hounsfield.assign(8 * 6 * 5, 0.0f);
+  EXPECT_EQ(std::system(("mkdir -p " + dir).c_str()), 0);
+  xp::WriteCTSeries(v, dir);
+  return xp::ScanCTSeries(dir);
+}
+
+xp::RTImageDRR DRROf(const xp::XRayView& view)
+{
+  xp::RTImageDRR drr;
+  drr.view = view;
+  drr.isocenterInCT = Eigen::Vector3d(0.0, 0.0, 104.0);
+  drr.pixels.resize(static_cast<size_t>(view.Columns()) * view.Rows());
+  for (size_t i = 0; i < drr.pixels.size(); ++i)
+    drr.pixels[i] = static_cast<uint16_t>(i % 4096);
+  drr.description = "DRR at the planned set-up";
+  return drr;
+}
+
+} // namespace
+
+TEST(RTImage, DRRsAreValidAndTheirTagsGiveBackTheImager)
+{
+  const std::string dir = FreshFolder("rtimage");
+  const xp::CTSeriesInfo ct = SmallSeries(dir + "/ct");
+  const std::string series = xp::NewDICOMUID();
+  const xp::StereoGeometry reference = xp::testing::ReferenceStereoGeometry();
+  int instance = 0;
+  for (const xp::XRayView& panel : reference.views)
+  {
+    const xp::XRayView view = panel.Resampled(128, 96);
+    const std::string path = dir + "/drr_" + view.name + ".dcm";
+    xp::WriteRTImageDRR(ct, DRROf(view), series, ++instance, path);
+    const xp::XRayView back = xp::ReadRTImageView(path, reference.isocenter);
+    EXPECT_EQ(back.name, view.name);
+    EXPECT_LT((back.source - view.source).norm(), 0.1);
+    EXPECT_LT((back.detectorCenter - view.detectorCenter).norm(), 0.1);
+    EXPECT_LT(DegreesApart(back.rowDirection, view.rowDirection), 0.01);
+    EXPECT_LT(DegreesApart(back.columnDirection, view.columnDirection), 0.01);
+    EXPECT_NEAR(back.pixelSpacing[0], view.pixelSpacing[0], 1e-9);
+    EXPECT_EQ(back.size, view.size);
+
+    if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
+      continue;
+    const std::string log = path + ".txt";
+    std::system(("dciodvfy " + path + " > " + log + " 2>&1").c_str());
+    std::ifstream in(log);
+    std::stringstream text;
+    text << in.rdbuf();
+    EXPECT_EQ(text.str().find("Error"), std::string::npos) << text.str();
+  }
+  if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "dciodvfy (Debian package dicom3tools) not installed: the IOD check is skipped";
+}
+
+TEST(RTImage, MissingOrContradictoryGeometryTagsAreNamed)
+{
+  const std::string dir = FreshFolder("rtimage-bad");
+  const xp::CTSeriesInfo ct = SmallSeries(dir + "/ct");
+  const xp::XRayView view = xp::testing::ReferenceStereoGeometry().views[0].Resampled(64, 48);
+  const std::string path = dir + "/drr.dcm";
+  xp::WriteRTImageDRR(ct, DRROf(view), xp::NewDICOMUID(), 1, path);
+  const auto errorAfter = [&](const std::string& edit)
+  {
+    const std::string edited = dir + "/edited.dcm";
+    std::system(("cp " + path + " " + edited + " && dcmodify -nb " + edit + " " + edited + " > /dev/null 2>&1").c_str());
+    try
+    {
+      xp::ReadRTImageView(edited, Eigen::Vector3d::Zero());
+    }
+    catch (const xp::InputError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  if (std::system("command -v dcmodify > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "dcmodify (Debian package dcmtk) not installed";
+  EXPECT_NE(errorAfter("-e \"(3002,0026)\"").find("RT Image SID (3002,0026) missing"), std::string::npos);
+  EXPECT_NE(errorAfter("-e \"(300A,011E)\"").find("Gantry Angle (300A,011E) missing"), std::string::npos);
+  EXPECT_NE(errorAfter("-m \"(3002,000D)=0\\\\0\\\\-300\"").find("(3002,000D)"), std::string::npos);
+  EXPECT_NE(errorAfter("-m \"(3002,000C)=NON_NORMAL\"").find("(3002,000C)"), std::string::npos);
+  EXPECT_NE(errorAfter("-m \"(3002,0011)=0.5\"").find("Image Plane Pixel Spacing (3002,0011)"), std::string::npos);
+  EXPECT_THROW(xp::ReadRTImageView(ct.files.front(), Eigen::Vector3d::Zero()), xp::InputError); // a CT image
+}

@@ -1,0 +1,126 @@
+#include "xpDICOMDataSet.h"
+
+#include "xpError.h"
+
+#include <gdcmReader.h>
+#include <gdcmSequenceOfItems.h>
+
+#include <cstdio>
+#include <ctime>
+
+namespace xp
+{
+namespace dicom
+{
+
+/** A text element; UI values are padded with NUL, others with a space, to even length. */
+gdcm::DataElement Text(uint16_t group, uint16_t element, gdcm::VR vr, std::string value)
+{
+  if (value.size() % 2)
+    value += vr == gdcm::VR::UI ? '\0' : ' ';
+  gdcm::DataElement de(gdcm::Tag(group, element));
+  de.SetVR(vr);
+  de.SetByteValue(value.data(), static_cast<uint32_t>(value.size()));
+  return de;
+}
+
+void Put(gdcm::DataSet& ds, uint16_t group, uint16_t element, gdcm::VR vr, const std::string& value)
+{
+  ds.Replace(Text(group, element, vr, value));
+}
+
+/** A sequence element holding `items` (each a data set). */
+void PutSequence(gdcm::DataSet& ds, uint16_t group, uint16_t element, const std::vector<gdcm::DataSet>& items)
+{
+  gdcm::SmartPointer<gdcm::SequenceOfItems> sequence = new gdcm::SequenceOfItems;
+  sequence->SetLengthToUndefined();
+  for (const gdcm::DataSet& nested : items)
+  {
+    gdcm::Item item;
+    item.SetVLToUndefined();
+    item.SetNestedDataSet(nested);
+    sequence->AddItem(item);
+  }
+  gdcm::DataElement de(gdcm::Tag(group, element));
+  de.SetVR(gdcm::VR::SQ);
+  de.SetValue(*sequence);
+  de.SetVLToUndefined();
+  ds.Replace(de);
+}
+
+/** A decimal string of at most 16 characters. */
+std::string DS(double value)
+{
+  char text[32];
+  for (int digits = 12; digits > 1; --digits)
+  {
+    std::snprintf(text, sizeof(text), "%.*g", digits, value == 0.0 ? 0.0 : value);
+    if (std::string(text).size() <= 16)
+      break;
+  }
+  return text;
+}
+
+namespace
+{
+
+std::string Stored(const gdcm::DataSet& ds, const gdcm::Tag& tag)
+{
+  if (!ds.FindDataElement(tag))
+    return "";
+  const gdcm::ByteValue* value = ds.GetDataElement(tag).GetByteValue();
+  return value ? std::string(value->GetPointer(), value->GetLength()) : std::string();
+}
+
+std::string Trimmed(std::string text)
+{
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\0'))
+    text.pop_back();
+  return text;
+}
+
+} // namespace
+
+std::string Value(const gdcm::DataSet& ds, const gdcm::Tag& tag)
+{
+  return Trimmed(Stored(ds, tag));
+}
+
+void CopyPatientAndStudy(const std::string& ctFile, gdcm::DataSet& ds)
+{
+  gdcm::Reader reader;
+  reader.SetFileName(ctFile.c_str());
+  if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010)))
+    throw InputError(ctFile, "unreadable DICOM header");
+  const gdcm::DataSet& source = reader.GetFile().GetDataSet();
+  // Patient and General Study, as the CT has them (type 2 attributes empty when it has none).
+  const uint16_t copied[][2] = { { 0x0008, 0x0005 }, { 0x0008, 0x0020 }, { 0x0008, 0x0030 }, { 0x0008, 0x0050 },
+    { 0x0008, 0x0090 }, { 0x0008, 0x1030 }, { 0x0010, 0x0010 }, { 0x0010, 0x0020 }, { 0x0010, 0x0030 },
+    { 0x0010, 0x0040 }, { 0x0020, 0x0010 } };
+  const gdcm::VR copiedVR[] = { gdcm::VR::CS, gdcm::VR::DA, gdcm::VR::TM, gdcm::VR::SH, gdcm::VR::PN, gdcm::VR::LO,
+    gdcm::VR::PN, gdcm::VR::LO, gdcm::VR::DA, gdcm::VR::CS, gdcm::VR::SH };
+  for (size_t i = 0; i < sizeof(copied) / sizeof(copied[0]); ++i)
+  {
+    const gdcm::Tag tag(copied[i][0], copied[i][1]);
+    if (tag == gdcm::Tag(0x0008, 0x0005) && !source.FindDataElement(tag))
+      continue; // the default repertoire
+    Put(ds, copied[i][0], copied[i][1], copiedVR[i], Value(source, tag));
+  }
+}
+
+void PutNow(gdcm::DataSet& ds)
+{
+  const std::time_t now = std::time(nullptr);
+  std::tm local{};
+  localtime_r(&now, &local);
+  char date[16], time[16];
+  std::strftime(date, sizeof(date), "%Y%m%d", &local);
+  std::strftime(time, sizeof(time), "%H%M%S", &local);
+  Put(ds, 0x0008, 0x0012, gdcm::VR::DA, date); // Instance Creation Date
+  Put(ds, 0x0008, 0x0013, gdcm::VR::TM, time);
+  Put(ds, 0x0008, 0x0023, gdcm::VR::DA, date); // Content Date
+  Put(ds, 0x0008, 0x0033, gdcm::VR::TM, time);
+}
+
+} // namespace dicom
+} // namespace xp

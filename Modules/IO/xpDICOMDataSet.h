@@ -1,0 +1,40 @@
+/**
+ * @file xpDICOMDataSet.h
+ * @brief Small helpers for the DICOM objects xpose writes (module-private): elements with the
+ *        padding DICOM wants, sequences, decimal strings, and the patient and study of a CT.
+ */
+#ifndef xpDICOMDataSet_h
+#define xpDICOMDataSet_h
+
+#include <gdcmDataSet.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace xp
+{
+namespace dicom
+{
+
+/** A text element; UI values are padded with NUL, others with a space, to even length. */
+gdcm::DataElement Text(uint16_t group, uint16_t element, gdcm::VR vr, std::string value);
+void Put(gdcm::DataSet& ds, uint16_t group, uint16_t element, gdcm::VR vr, const std::string& value);
+/** A sequence element holding `items` (each a data set). */
+void PutSequence(gdcm::DataSet& ds, uint16_t group, uint16_t element, const std::vector<gdcm::DataSet>& items);
+/** A decimal string of at most 16 characters. */
+std::string DS(double value);
+/** The value of `tag` in `ds` without its padding, empty when absent. */
+std::string Value(const gdcm::DataSet& ds, const gdcm::Tag& tag);
+/**
+ * Copies the Patient and General Study attributes of the CT file `ctFile` into `ds` (type 2
+ * ones empty where the CT has none). Throws xp::InputError naming the file when it cannot be read.
+ */
+void CopyPatientAndStudy(const std::string& ctFile, gdcm::DataSet& ds);
+/** Content / instance creation date and time (DA, TM) of now, local time. */
+void PutNow(gdcm::DataSet& ds);
+
+} // namespace dicom
+} // namespace xp
+
+#endif

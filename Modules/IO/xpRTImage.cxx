@@ -1,0 +1,233 @@
+#include "xpRTImage.h"
+
+#include "xpDICOMDataSet.h"
+#include "xpError.h"
+#include "xpRTImageGeometry.h"
+#include "xpSpatialRegistration.h"
+
+#include <gdcmReader.h>
+#include <gdcmTrace.h>
+#include <gdcmWriter.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+
+namespace xp
+{
+
+using dicom::DS;
+using dicom::Put;
+using dicom::PutSequence;
+using dicom::Value;
+
+namespace
+{
+
+const char* RTImageStorage = "1.2.840.10008.5.1.4.1.1.481.1";
+
+std::string Numbers(std::initializer_list<double> values)
+{
+  std::string text;
+  for (double v : values)
+    text += (text.empty() ? "" : "\\") + DS(v);
+  return text;
+}
+
+/** The numbers of a DS/IS element: exactly `count` finite ones, or xp::InputError naming the tag. */
+std::vector<double> Read(const gdcm::DataSet& ds, uint16_t group, uint16_t element, size_t count, const std::string& name,
+  const std::string& path, bool required)
+{
+  const std::string text = Value(ds, gdcm::Tag(group, element));
+  char tag[16];
+  std::snprintf(tag, sizeof(tag), "(%04X,%04X)", group, element);
+  if (text.empty())
+  {
+    if (required)
+      throw InputError(path, name + " " + tag + " missing: the imager's geometry cannot be rebuilt");
+    return {};
+  }
+  std::vector<double> values;
+  std::stringstream words(text);
+  std::string word;
+  while (std::getline(words, word, '\\'))
+  {
+    char* end = nullptr;
+    const double value = std::strtod(word.c_str(), &end);
+    while (end && *end == ' ')
+      ++end;
+    if (end == word.c_str() || *end != '\0' || !std::isfinite(value))
+      throw InputError(path, name + " " + tag + ": '" + word + "' is not a finite number");
+    values.push_back(value);
+  }
+  if (values.size() != count)
+    throw InputError(path, name + " " + tag + ": expected " + std::to_string(count) + " values, found " + std::to_string(values.size()));
+  return values;
+}
+
+} // namespace
+
+std::string WriteRTImageDRR(
+  const CTSeriesInfo& ct, const RTImageDRR& drr, const std::string& seriesUID, int instanceNumber, const std::string& path)
+{
+  const RTImageGeometry g = RTImageGeometryOf(drr.view, drr.roomIsocenter);
+  const size_t pixelCount = static_cast<size_t>(drr.view.Columns()) * drr.view.Rows();
+  if (drr.pixels.size() != pixelCount)
+    throw Error(path, "internal: the DRR's pixels do not match its imager's size");
+  if (ct.files.empty() || ct.frameOfReferenceUID.empty() || ct.studyInstanceUID.empty())
+    throw InputError(ct.directory, "the CT series has no Study Instance UID or Frame of Reference UID to link the DRR to");
+  gdcm::Trace::WarningOff();
+  gdcm::Writer writer;
+  gdcm::DataSet& ds = writer.GetFile().GetDataSet();
+  dicom::CopyPatientAndStudy(ct.files.front(), ds);
+  Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
+  const std::string sopInstanceUID = NewDICOMUID();
+  Put(ds, 0x0008, 0x0016, gdcm::VR::UI, RTImageStorage);
+  Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
+  dicom::PutNow(ds);
+  Put(ds, 0x0008, 0x0008, gdcm::VR::CS, "DERIVED\\SECONDARY\\DRR");
+  Put(ds, 0x0008, 0x0060, gdcm::VR::CS, "RTIMAGE");
+  Put(ds, 0x0008, 0x0064, gdcm::VR::CS, "WSD"); // Conversion Type: workstation
+  Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
+  Put(ds, 0x0008, 0x103e, gdcm::VR::LO, "xpose DRRs");
+  Put(ds, 0x0008, 0x1070, gdcm::VR::PN, "");    // Operators' Name: none, software
+  Put(ds, 0x3002, 0x0020, gdcm::VR::SH, "");    // Radiation Machine Name: an imaging room, not a linac
+  Put(ds, 0x300a, 0x00b3, gdcm::VR::CS, "");    // Primary Dosimeter Unit: no beam was delivered
+  Put(ds, 0x0018, 0x1020, gdcm::VR::LO, "xpose");
+  Put(ds, 0x0018, 0x5100, gdcm::VR::CS, drr.patientPosition);
+  Put(ds, 0x0020, 0x000e, gdcm::VR::UI, seriesUID);
+  Put(ds, 0x0020, 0x0011, gdcm::VR::IS, "1");
+  Put(ds, 0x0020, 0x0013, gdcm::VR::IS, std::to_string(instanceNumber));
+  Put(ds, 0x0020, 0x0020, gdcm::VR::CS, "");    // Patient Orientation: given by the geometry below
+  Put(ds, 0x0020, 0x0052, gdcm::VR::UI, ct.frameOfReferenceUID);
+  Put(ds, 0x0020, 0x1040, gdcm::VR::LO, "");
+  // Derived from the CT: every image it was rendered from.
+  std::vector<gdcm::DataSet> sources;
+  for (const std::string& uid : ct.sopInstanceUIDs)
+  {
+    gdcm::DataSet source;
+    Put(source, 0x0008, 0x1150, gdcm::VR::UI, ct.sopClassUID);
+    Put(source, 0x0008, 0x1155, gdcm::VR::UI, uid);
+    sources.push_back(source);
+  }
+  PutSequence(ds, 0x0008, 0x2112, sources); // Source Image Sequence
+  Put(ds, 0x0008, 0x2111, gdcm::VR::ST, "DRR rendered by xpose from the CT"); // Derivation Description
+
+  // RT Image geometry (xpRTImageGeometry.h).
+  Put(ds, 0x3002, 0x0002, gdcm::VR::SH, drr.view.name.substr(0, 16)); // RT Image Label
+  Put(ds, 0x3002, 0x0004, gdcm::VR::ST, drr.description);
+  Put(ds, 0x3002, 0x000c, gdcm::VR::CS, "NORMAL");
+  Put(ds, 0x3002, 0x000d, gdcm::VR::DS,
+    Numbers({ g.receptorTranslation.x(), g.receptorTranslation.y(), g.receptorTranslation.z() }));
+  Put(ds, 0x3002, 0x000e, gdcm::VR::DS, DS(g.receptorAngle));
+  Put(ds, 0x3002, 0x0011, gdcm::VR::DS, Numbers({ g.pixelSpacing[0], g.pixelSpacing[1] }));
+  Put(ds, 0x3002, 0x0012, gdcm::VR::DS, Numbers({ g.imagePosition.x(), g.imagePosition.y() }));
+  Put(ds, 0x3002, 0x0022, gdcm::VR::DS, DS(g.sad));
+  Put(ds, 0x3002, 0x0026, gdcm::VR::DS, DS(g.sid));
+  Put(ds, 0x300a, 0x011e, gdcm::VR::DS, DS(g.gantryAngle));
+  {
+    // Gantry Pitch Angle is binary (FL), little-endian as the transfer syntax.
+    const float pitch = static_cast<float>(g.gantryPitch);
+    gdcm::DataElement de(gdcm::Tag(0x300a, 0x014a));
+    de.SetVR(gdcm::VR::FL);
+    de.SetByteValue(reinterpret_cast<const char*>(&pitch), 4);
+    ds.Replace(de);
+  }
+  Put(ds, 0x300a, 0x0122, gdcm::VR::DS, "0"); // Patient Support Angle
+  Put(ds, 0x300a, 0x012c, gdcm::VR::DS, Numbers({ drr.isocenterInCT.x(), drr.isocenterInCT.y(), drr.isocenterInCT.z() }));
+
+  // 12-bit pixels, bone dark as in a transmission image.
+  Put(ds, 0x0028, 0x0004, gdcm::VR::CS, "MONOCHROME2");
+  const uint16_t samples = 1, rows = static_cast<uint16_t>(drr.view.Rows()), columns = static_cast<uint16_t>(drr.view.Columns()),
+                 allocated = 16, stored = 12, high = 11, representation = 0;
+  const std::pair<uint16_t, uint16_t> shorts[] = { { 0x0002, samples }, { 0x0010, rows }, { 0x0011, columns },
+    { 0x0100, allocated }, { 0x0101, stored }, { 0x0102, high }, { 0x0103, representation } };
+  for (const auto& [element, value] : shorts)
+  {
+    gdcm::DataElement de(gdcm::Tag(0x0028, element));
+    de.SetVR(gdcm::VR::US);
+    de.SetByteValue(reinterpret_cast<const char*>(&value), 2);
+    ds.Replace(de);
+  }
+  Put(ds, 0x0028, 0x1050, gdcm::VR::DS, "2048"); // Window Center
+  Put(ds, 0x0028, 0x1051, gdcm::VR::DS, "4096"); // Window Width
+  gdcm::DataElement pixels(gdcm::Tag(0x7fe0, 0x0010));
+  pixels.SetVR(gdcm::VR::OW);
+  pixels.SetByteValue(reinterpret_cast<const char*>(drr.pixels.data()), static_cast<uint32_t>(pixelCount * 2));
+  ds.Replace(pixels);
+
+  writer.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
+  writer.SetFileName(path.c_str());
+  if (!writer.Write())
+  {
+    std::remove(path.c_str());
+    throw Error(path, "cannot write the DICOM RT Image");
+  }
+  return sopInstanceUID;
+}
+
+XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIsocenter)
+{
+  gdcm::Trace::WarningOff();
+  gdcm::Reader reader;
+  reader.SetFileName(path.c_str());
+  if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010)))
+    throw InputError(path, "not a readable DICOM file");
+  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  if (Value(ds, gdcm::Tag(0x0008, 0x0016)) != RTImageStorage)
+    throw InputError(path, "SOP Class UID (0008,0016) is not RT Image Storage");
+  const std::string plane = Value(ds, gdcm::Tag(0x3002, 0x000c));
+  if (plane != "NORMAL")
+    throw InputError(path, "RT Image Plane (3002,000C) = '" + plane + "': only NORMAL panels are supported");
+  RTImageGeometry g;
+  g.sad = Read(ds, 0x3002, 0x0022, 1, "Radiation Machine SAD", path, true)[0];
+  g.sid = Read(ds, 0x3002, 0x0026, 1, "RT Image SID", path, true)[0];
+  if (!(g.sad > 0.0) || !(g.sid > g.sad))
+    throw InputError(path, "RT Image SID (3002,0026) must exceed Radiation Machine SAD (3002,0022), both positive");
+  const std::vector<double> spacing = Read(ds, 0x3002, 0x0011, 2, "Image Plane Pixel Spacing", path, true);
+  if (!(spacing[0] > 0.0) || !(spacing[1] > 0.0))
+    throw InputError(path, "Image Plane Pixel Spacing (3002,0011) must be positive");
+  g.pixelSpacing = Eigen::Vector2d(spacing[0], spacing[1]);
+  g.gantryAngle = Read(ds, 0x300a, 0x011e, 1, "Gantry Angle", path, true)[0];
+  const gdcm::Tag pitchTag(0x300a, 0x014a);
+  if (ds.FindDataElement(pitchTag) && ds.GetDataElement(pitchTag).GetByteValue() &&
+    ds.GetDataElement(pitchTag).GetByteValue()->GetLength() == 4)
+  {
+    float pitch = 0.0f;
+    std::memcpy(&pitch, ds.GetDataElement(pitchTag).GetByteValue()->GetPointer(), 4);
+    if (!std::isfinite(pitch) || std::abs(pitch) >= 90.0f)
+      throw InputError(path, "Gantry Pitch Angle (300A,014A) must be finite and within +-90 degrees");
+    g.gantryPitch = pitch;
+  }
+  const std::vector<double> angle = Read(ds, 0x3002, 0x000e, 1, "X-Ray Image Receptor Angle", path, false);
+  g.receptorAngle = angle.empty() ? 0.0 : angle[0];
+  const gdcm::Tag rowsTag(0x0028, 0x0010), columnsTag(0x0028, 0x0011);
+  for (const gdcm::Tag& tag : { rowsTag, columnsTag })
+  {
+    if (!ds.FindDataElement(tag) || !ds.GetDataElement(tag).GetByteValue() || ds.GetDataElement(tag).GetByteValue()->GetLength() != 2)
+      throw InputError(path, tag == rowsTag ? "Rows (0028,0010) missing" : "Columns (0028,0011) missing");
+  }
+  uint16_t rows = 0, columns = 0;
+  std::memcpy(&rows, ds.GetDataElement(rowsTag).GetByteValue()->GetPointer(), 2);
+  std::memcpy(&columns, ds.GetDataElement(columnsTag).GetByteValue()->GetPointer(), 2);
+  if (rows < 1 || columns < 1)
+    throw InputError(path, "Rows (0028,0010) / Columns (0028,0011) must be at least 1");
+  g.rows = rows;
+  g.columns = columns;
+  const std::vector<double> translation = Read(ds, 0x3002, 0x000d, 3, "X-Ray Image Receptor Translation", path, false);
+  g.receptorTranslation = translation.empty() ? Eigen::Vector3d(0.0, 0.0, g.sad - g.sid)
+                                              : Eigen::Vector3d(translation[0], translation[1], translation[2]);
+  if (std::abs(g.receptorTranslation.z() - (g.sad - g.sid)) > 0.1)
+    throw InputError(path, "X-Ray Image Receptor Translation (3002,000D) z = " + DS(g.receptorTranslation.z()) +
+        " mm contradicts Radiation Machine SAD - RT Image SID = " + DS(g.sad - g.sid) + " mm");
+  const std::vector<double> position = Read(ds, 0x3002, 0x0012, 2, "RT Image Position", path, false);
+  g.imagePosition = position.empty()
+    ? Eigen::Vector2d(-0.5 * (columns - 1) * g.pixelSpacing[1], 0.5 * (rows - 1) * g.pixelSpacing[0])
+    : Eigen::Vector2d(position[0], position[1]);
+  std::string name = Value(ds, gdcm::Tag(0x3002, 0x0002));
+  return ViewOfRTImage(g, roomIsocenter, name.empty() ? path : name);
+}
+
+} // namespace xp
