@@ -12,7 +12,7 @@ packages=(
   libxrl-dev                                  # xraylib: X-ray cross sections for the simulator
   python3-vtk9 python3-dev                    # the xpose Python package, wrapped against Debian's VTK
   xvfb xauth                                  # off-screen rendering tests on a virtual display
-  dicom3tools                                 # dciodvfy: the tests validate the DICOM xpose writes
+  dicom3tools dcmtk                           # dciodvfy, dcmodify: the tests validate and edit the DICOM xpose writes
 )
 sudo=""
 if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
