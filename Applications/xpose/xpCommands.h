@@ -154,6 +154,7 @@ struct GeometryOptions
   std::vector<std::string> intrinsics;         ///< or K files, one per imager
   std::vector<std::string> extrinsics;         ///< with [R | t] files, one per imager
   std::vector<std::string> dicom;              ///< or RT Images, one per imager (their own tags)
+  std::string check;                           ///< with `dicom`: compare them with this geometry file instead
   std::vector<std::string> names;              ///< the imagers' names; empty = A, B, ...
   std::string pixelSpacing;                    ///< "MM" or "COLUMN_MM,ROW_MM"
   std::string size;                            ///< "COLSxROWS"

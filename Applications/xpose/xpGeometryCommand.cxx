@@ -79,10 +79,47 @@ StereoGeometry GeometryFromMatrices(const GeometryOptions& options)
   return geometry;
 }
 
+double DegreesApart(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI;
+}
+
+/** --check: each RT Image against the geometry file's imager of the same order. */
+int CheckAgainstGeometry(const GeometryOptions& options)
+{
+  if (options.dicom.empty())
+    throw InputError("--check", "compares RT Images (--dicom) with the geometry file");
+  const StereoGeometry geometry = ReadStereoGeometry(options.check);
+  if (options.dicom.size() != geometry.views.size())
+    throw InputError("--dicom", "give one RT Image per imager of " + options.check + " (" + std::to_string(geometry.views.size()) +
+        "), in order; got " + std::to_string(options.dicom.size()));
+  bool agree = true;
+  for (size_t v = 0; v < geometry.views.size(); ++v)
+  {
+    const XRayView& expected = geometry.views[v];
+    const XRayView found = ReadRTImageView(options.dicom[v], geometry.isocenter);
+    std::printf("imager %s, %s: source %.3f mm, panel centre %.3f mm from the file's; rows %.4f deg, columns %.4f deg apart\n",
+      expected.name.c_str(), options.dicom[v].c_str(), (found.source - expected.source).norm(),
+      (found.detectorCenter - expected.detectorCenter).norm(), DegreesApart(found.rowDirection, expected.rowDirection),
+      DegreesApart(found.columnDirection, expected.columnDirection));
+    for (const std::string& difference : RTImageDisagreements(options.dicom[v], expected, geometry.isocenter))
+    {
+      std::printf("  %s\n", difference.c_str());
+      agree = false;
+    }
+  }
+  std::printf("%s\n", agree ? "the RT Images agree with the geometry file (0.5 mm, 0.1 deg)" : "the RT Images DISAGREE with the geometry file");
+  return agree ? ExitOk : ExitBadInput;
+}
+
 } // namespace
 
 int RunGeometry(const GeometryOptions& options)
 {
+  if (!options.check.empty())
+    return CheckAgainstGeometry(options);
+  if (options.output.empty())
+    throw InputError("--out", "the geometry file to write is missing");
   const StereoGeometry geometry = options.dicom.empty() ? GeometryFromMatrices(options) : GeometryFromRTImages(options);
   // The views must make a geometry xpose can use (central rays on the panels, names distinct).
   ValidateGeometry(geometry, options.output);

@@ -59,7 +59,9 @@ CLI::App* AddGeometryCommand(CLI::App& app, xp::GeometryOptions& options)
     "Detector pixel spacing, MM or COLUMN_MM,ROW_MM (with matrices)");
   geometryCommand->add_option("--size", options.size, "Detector COLSxROWS (with matrices)");
   geometryCommand->add_option("--isocenter", options.isocenter, "Room isocentre x,y,z (mm)")->capture_default_str();
-  geometryCommand->add_option("--out", options.output, "The geometry JSON to write")->required();
+  geometryCommand->add_option("--check", options.check,
+    "With --dicom: report how far the RT Images' tags are from this geometry file (exit 2 beyond 0.5 mm / 0.1 deg)");
+  geometryCommand->add_option("--out", options.output, "The geometry JSON to write");
   return geometryCommand;
 }
 

@@ -230,4 +230,69 @@ XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIso
   return ViewOfRTImage(g, roomIsocenter, name.empty() ? path : name);
 }
 
+std::vector<std::string> RTImageDisagreements(
+  const std::string& path, const XRayView& view, const Eigen::Vector3d& roomIsocenter)
+{
+  gdcm::Trace::WarningOff();
+  gdcm::Reader reader;
+  reader.SetFileName(path.c_str());
+  if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010)))
+    return {};
+  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  if (Value(ds, gdcm::Tag(0x0008, 0x0016)) != RTImageStorage)
+    return {};
+  RTImageGeometry expected;
+  try
+  {
+    expected = RTImageGeometryOf(view, roomIsocenter);
+  }
+  catch (const InputError& e)
+  {
+    return { std::string("cannot be compared: ") + e.what() };
+  }
+  std::vector<std::string> differences;
+  const auto compare = [&](uint16_t group, uint16_t element, const std::string& name, const std::vector<double>& wanted,
+                         double tolerance, const std::string& unit, bool angle)
+  {
+    const std::vector<double> found = Read(ds, group, element, wanted.size(), name, path, false);
+    if (found.empty())
+      return;
+    bool apart = false;
+    std::string foundText, wantedText;
+    for (size_t i = 0; i < wanted.size(); ++i)
+    {
+      double difference = std::abs(found[i] - wanted[i]);
+      if (angle)
+        difference = std::min(difference, 360.0 - std::fmod(difference, 360.0));
+      apart = apart || difference > tolerance;
+      foundText += (i ? "\\" : "") + DS(found[i]);
+      wantedText += (i ? "\\" : "") + DS(wanted[i]);
+    }
+    char tag[16];
+    std::snprintf(tag, sizeof(tag), "(%04X,%04X)", group, element);
+    if (apart)
+      differences.push_back(name + " " + tag + " = " + foundText + " " + unit + ", the geometry file's imager " + view.name +
+        " has " + wantedText + " " + unit);
+  };
+  compare(0x300a, 0x011e, "Gantry Angle", { expected.gantryAngle }, 0.1, "deg", true);
+  const gdcm::Tag pitchTag(0x300a, 0x014a);
+  if (ds.FindDataElement(pitchTag) && ds.GetDataElement(pitchTag).GetByteValue() &&
+    ds.GetDataElement(pitchTag).GetByteValue()->GetLength() == 4)
+  {
+    float pitch = 0.0f;
+    std::memcpy(&pitch, ds.GetDataElement(pitchTag).GetByteValue()->GetPointer(), 4);
+    if (!(std::abs(pitch - expected.gantryPitch) <= 0.1))
+      differences.push_back("Gantry Pitch Angle (300A,014A) = " + DS(pitch) + " deg, the geometry file's imager " + view.name +
+        " has " + DS(expected.gantryPitch) + " deg");
+  }
+  compare(0x3002, 0x000e, "X-Ray Image Receptor Angle", { expected.receptorAngle }, 0.1, "deg", true);
+  compare(0x3002, 0x0022, "Radiation Machine SAD", { expected.sad }, 0.5, "mm", false);
+  compare(0x3002, 0x0026, "RT Image SID", { expected.sid }, 0.5, "mm", false);
+  const Eigen::Vector3d& t = expected.receptorTranslation;
+  compare(0x3002, 0x000d, "X-Ray Image Receptor Translation", { t.x(), t.y(), t.z() }, 0.5, "mm", false);
+  compare(0x3002, 0x0012, "RT Image Position", { expected.imagePosition.x(), expected.imagePosition.y() }, 0.5, "mm", false);
+  compare(0x3002, 0x0011, "Image Plane Pixel Spacing", { expected.pixelSpacing[0], expected.pixelSpacing[1] }, 1e-3, "mm", false);
+  return differences;
+}
+
 } // namespace xp

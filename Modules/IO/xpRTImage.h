@@ -49,6 +49,14 @@ VTKXPIO_EXPORT std::string WriteRTImageDRR(
  */
 VTKXPIO_EXPORT XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIsocenter);
 
+/**
+ * Where the geometry tags of the RT Image at `path` disagree with `view` (a geometry file's
+ * imager) beyond 0.5 mm or 0.1 degree: one line per tag, naming it and both values. A file that
+ * is not an RT Image, and tags that are absent, give nothing to compare.
+ */
+VTKXPIO_EXPORT std::vector<std::string> RTImageDisagreements(
+  const std::string& path, const XRayView& view, const Eigen::Vector3d& roomIsocenter);
+
 } // namespace xp
 
 #endif

@@ -384,6 +384,14 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   ASSERT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(geometry); }), xp::ExitOk);
   const xp::StereoGeometry reference = xp::ReadStereoGeometry(Geometry), read = xp::ReadStereoGeometry(geometry.output);
   ExpectSameImagers(read, reference);
+  // --check: the RT Images agree with the geometry file they were made for, not with their
+  // imagers swapped.
+  xp::GeometryOptions check;
+  check.check = Geometry;
+  check.dicom = geometry.dicom;
+  EXPECT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(check); }), xp::ExitOk);
+  std::swap(check.dicom[0], check.dicom[1]);
+  EXPECT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(check); }), xp::ExitBadInput);
 }
 
 TEST(Commands, RegisterRefusesImagesOfSomethingElse)

@@ -115,3 +115,27 @@ TEST(RTImage, MissingOrContradictoryGeometryTagsAreNamed)
   EXPECT_NE(errorAfter("-m \"(3002,0011)=0.5\"").find("Image Plane Pixel Spacing (3002,0011)"), std::string::npos);
   EXPECT_THROW(xp::ReadRTImageView(ct.files.front(), Eigen::Vector3d::Zero()), xp::InputError); // a CT image
 }
+
+TEST(RTImage, DisagreementsWithAGeometryFileNameTheTagAndBothValues)
+{
+  const std::string dir = FreshFolder("rtimage-check");
+  const xp::CTSeriesInfo ct = SmallSeries(dir + "/ct");
+  const xp::StereoGeometry reference = xp::testing::ReferenceStereoGeometry();
+  const xp::XRayView a = reference.views[0].Resampled(64, 48), b = reference.views[1].Resampled(64, 48);
+  const std::string path = dir + "/drr_A.dcm";
+  xp::WriteRTImageDRR(ct, DRROf(a), xp::NewDICOMUID(), 1, path);
+  EXPECT_TRUE(xp::RTImageDisagreements(path, a, reference.isocenter).empty());
+  const std::vector<std::string> other = xp::RTImageDisagreements(path, b, reference.isocenter);
+  ASSERT_EQ(other.size(), 1u);
+  EXPECT_NE(other[0].find("Gantry Angle (300A,011E) = 225 deg"), std::string::npos) << other[0];
+  EXPECT_NE(other[0].find("has 135 deg"), std::string::npos) << other[0];
+  // The panel 2 mm farther from the source: SID and the receptor translation disagree.
+  xp::XRayView farther = a;
+  farther.detectorCenter -= 2.0 * farther.NormalTowardsSource();
+  const std::vector<std::string> moved = xp::RTImageDisagreements(path, farther, reference.isocenter);
+  ASSERT_EQ(moved.size(), 2u);
+  EXPECT_NE(moved[0].find("RT Image SID (3002,0026) = 1499.99"), std::string::npos) << moved[0];
+  EXPECT_NE(moved[0].find("has 1501.99"), std::string::npos) << moved[0];
+  EXPECT_NE(moved[1].find("(3002,000D)"), std::string::npos) << moved[1];
+  EXPECT_TRUE(xp::RTImageDisagreements(ct.files.front(), a, reference.isocenter).empty()) << "a CT image has no imager";
+}
