@@ -13,6 +13,7 @@ packages=(
   python3-vtk9 python3-dev                    # the xpose Python package, wrapped against Debian's VTK
   xvfb xauth                                  # off-screen rendering tests on a virtual display
   dicom3tools dcmtk                           # dciodvfy, dcmodify: the tests validate and edit the DICOM xpose writes
+  orthanc                                     # a real DICOM archive for the `pacs` tests
 )
 sudo=""
 if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi

@@ -110,6 +110,12 @@ struct RegisterOptions
   /** When set, an `ok` result is also written there as a DICOM Spatial Registration (reg.dcm)
    *  from the CT's Frame of Reference; the CT must be a DICOM series. */
   std::string dicomOutputDirectory;
+  /** An Orthanc archive (http://HOST:PORT) to take the CT and X-rays from, by UID, and to store
+   *  the DICOM results in; `ct` and `xrays` are then left empty. */
+  std::string pacs;
+  std::string study;                ///< with pacs: the study whose one CT series is registered
+  std::string ctSeries;             ///< with pacs: or the CT series by UID
+  std::vector<std::string> xrayInstances; ///< with pacs: the X-rays' SOP Instance UIDs, in imager order
 };
 
 struct ReportOptions

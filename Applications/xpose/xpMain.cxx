@@ -143,10 +143,10 @@ CLI::App* AddSimulateCommand(CLI::App& app, xp::SimulateOptions& options)
 CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
 {
   CLI::App* registerCommand = app.add_subcommand("register", "Find the patient's 6-DOF misalignment from the stereo X-rays");
-  registerCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  registerCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz (or --pacs)");
   registerCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
   registerCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
-  registerCommand->add_option("--xray", options.xrays, "X-ray PNG (12-bit), one per imager in order")->required();
+  registerCommand->add_option("--xray", options.xrays, "X-ray PNG (12-bit) or DICOM, one per imager in order (or --pacs)");
   registerCommand->add_option("--roi", options.rois, "User ROI PNG per X-ray (non-zero = use)");
   registerCommand->add_flag("!--no-entropy-mask", options.settings.entropyMask, "Register the whole image (no entropy mask)");
   registerCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
@@ -164,6 +164,12 @@ CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
   registerCommand->add_option("--report", options.reportDirectory, "Also write the visual report (index.html, summary.png) here");
   registerCommand->add_option("--dicom-out", options.dicomOutputDirectory,
     "Also write an ok result as a DICOM Spatial Registration (reg.dcm) here; needs a DICOM CT");
+  registerCommand->add_option("--pacs", options.pacs,
+    "Orthanc archive http://HOST:PORT: take the CT and X-rays from it by UID, store the DICOM results in it");
+  registerCommand->add_option("--study", options.study, "With --pacs: the study whose one CT series is registered");
+  registerCommand->add_option("--ct-series", options.ctSeries, "With --pacs: the CT series (Series Instance UID)");
+  registerCommand->add_option("--xray-instance", options.xrayInstances,
+    "With --pacs: an X-ray's SOP Instance UID, one per imager in order");
   return registerCommand;
 }
 

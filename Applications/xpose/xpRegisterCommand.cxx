@@ -13,6 +13,7 @@
 #include "xpImageRows.h"
 #include "xpImageGeometry.h"
 #include "xpRegistrationRecord.h"
+#include "xpOrthanc.h"
 #include "xpRTImage.h"
 #include "xpSpatialRegistration.h"
 
@@ -22,6 +23,7 @@
 #include <vtkNew.h>
 #include <vtkPointData.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -278,6 +280,53 @@ void WarnOfGeometryTags(const RegisterOptions& options, const StereoGeometry& ge
       std::fprintf(stderr, "xpose register: warning: %s: %s\n", options.xrays[v].c_str(), difference.c_str());
 }
 
+/**
+ * --pacs: the CT series and the X-rays fetched from the archive into OUT/pacs-inputs (kept, so
+ * that `xpose report` can rebuild the pictures), and the options that register them from there.
+ */
+RegisterOptions FetchFromArchive(const RegisterOptions& options, const OrthancArchive& archive)
+{
+  if (!options.ct.empty() || !options.xrays.empty())
+    throw InputError("--pacs", "takes the CT and the X-rays from the archive: leave out --ct and --xray");
+  if (options.study.empty() == options.ctSeries.empty())
+    throw InputError("--pacs", "give the study (--study UID) or the CT series (--ct-series UID), one of them");
+  if (options.xrayInstances.empty())
+    throw InputError("--xray-instance", "give the X-rays' SOP Instance UIDs, one per imager in order");
+  StagedOutputDirectory::CheckWritable(options.outputDirectory);
+  archive.CheckReachable();
+  const std::string series = options.ctSeries.empty() ? archive.CTSeriesOfStudy(options.study) : options.ctSeries;
+  RegisterOptions local = options;
+  local.pacs.clear();
+  const std::string folder = options.outputDirectory + "/pacs-inputs";
+  std::filesystem::remove_all(folder);
+  std::filesystem::create_directories(folder + "/ct");
+  archive.FetchSeries(series, folder + "/ct");
+  local.ct = folder + "/ct";
+  local.series = series;
+  for (size_t v = 0; v < options.xrayInstances.size(); ++v)
+  {
+    local.xrays.push_back(folder + "/xray_" + std::to_string(v + 1) + ".dcm");
+    archive.FetchInstance(options.xrayInstances[v], local.xrays.back());
+  }
+  if (local.dicomOutputDirectory.empty())
+    local.dicomOutputDirectory = options.outputDirectory + "/dicom";
+  std::printf("pacs: CT series %s and %zu X-rays fetched from %s into %s\n", series.c_str(), local.xrays.size(),
+    options.pacs.c_str(), folder.c_str());
+  return local;
+}
+
+/** The DICOM results (REG if the result is ok, RT Image DRRs) stored in the archive, all or none. */
+void StoreInArchive(const OrthancArchive& archive, const std::string& dicomDirectory)
+{
+  std::vector<std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dicomDirectory))
+    if (entry.path().extension() == ".dcm")
+      files.push_back(entry.path().string());
+  std::sort(files.begin(), files.end());
+  archive.Store(files);
+  std::printf("pacs: %zu DICOM objects stored in the archive\n", files.size());
+}
+
 void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)
 {
   std::printf("\n%s\nmisalignment: %s\ncorrection:   %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); apply the "
@@ -292,6 +341,16 @@ void PrintResult(const StereoRegistrationResult& result, double totalSeconds, co
 
 int RunRegister(const RegisterOptions& options)
 {
+  if (!options.pacs.empty())
+  {
+    const OrthancArchive archive(options.pacs);
+    const RegisterOptions local = FetchFromArchive(options, archive);
+    const int code = RunRegister(local);
+    StoreInArchive(archive, local.dicomOutputDirectory);
+    return code;
+  }
+  if (options.ct.empty() || options.xrays.empty())
+    throw InputError(options.ct.empty() ? "--ct" : "--xray", "is required (or --pacs with --study or --ct-series and --xray-instance)");
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
   CheckRegistrationSettings(options.settings);
