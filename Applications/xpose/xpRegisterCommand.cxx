@@ -232,12 +232,14 @@ std::optional<CTSeriesInfo> DICOMOutputCT(const RegisterOptions& options)
 
 /**
  * DICOM output: reg.dcm, the estimated misalignment in the CT's coordinates from its Frame of
- * Reference (none for a failed result), and the DRRs at the planned set-up as RT Images, whole
- * panels, the references a viewer shows beside the X-rays.
+ * Reference (none for a failed result), the DRRs at the planned set-up as RT Images, whole
+ * panels, the references a viewer shows beside the X-rays, and with --report its summary as a
+ * Secondary Capture.
  */
 void WriteDICOMResult(const CTSeriesInfo& ct, const StereoRegistrationResult& result, const RegistrationInputs& inputs,
-  const std::string& directory)
+  const RegisterOptions& options)
 {
+  const std::string& directory = options.dicomOutputDirectory;
   StagedOutputDirectory output(directory);
   const DRRSetup& setup = inputs.setup;
   const std::string series = NewDICOMUID();
@@ -265,7 +267,14 @@ void WriteDICOMResult(const CTSeriesInfo& ct, const StereoRegistrationResult& re
   {
     written += "; no Spatial Registration: the registration failed";
   }
-  output.ReplaceEarlier({ "reg.dcm", "drr_*.dcm" });
+  if (!options.reportDirectory.empty())
+  {
+    // The report's summary picture as a Secondary Capture beside them, for any DICOM viewer.
+    WriteSecondaryCapture(ct, options.reportDirectory + "/summary.png",
+      std::string("xpose registration report: status ") + (result.ok ? "ok" : "FAILED, do not apply"), output.Path("report.dcm"));
+    written += ", the report (report.dcm)";
+  }
+  output.ReplaceEarlier({ "reg.dcm", "drr_*.dcm", "report.dcm" });
   output.Commit();
   std::printf("DICOM: %s in %s\n", written.c_str(), directory.c_str());
 }
@@ -398,8 +407,6 @@ int RunRegister(const RegisterOptions& options)
   record.inputs = RecordedInputs(options);
   WriteOutputs(registration, record, inputs.views, options);
   PrintResult(result, record.totalSeconds, options.outputDirectory);
-  if (dicomCT)
-    WriteDICOMResult(*dicomCT, result, inputs, options.dicomOutputDirectory);
   if (!options.reportDirectory.empty())
   {
     ReportOptions report;
@@ -407,6 +414,8 @@ int RunRegister(const RegisterOptions& options)
     report.outputDirectory = options.reportDirectory;
     RunReport(report);
   }
+  if (dicomCT)
+    WriteDICOMResult(*dicomCT, result, inputs, options);
   return result.ok ? ExitOk : ExitRegistrationFailed;
 }
 

@@ -2,6 +2,7 @@
 
 #include "xpDICOMDataSet.h"
 #include "xpError.h"
+#include "xpPNG.h"
 #include "xpRTImageGeometry.h"
 #include "xpSpatialRegistration.h"
 
@@ -228,6 +229,68 @@ XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIso
     : Eigen::Vector2d(position[0], position[1]);
   std::string name = Value(ds, gdcm::Tag(0x3002, 0x0002));
   return ViewOfRTImage(g, roomIsocenter, name.empty() ? path : name);
+}
+
+std::string WriteSecondaryCapture(
+  const CTSeriesInfo& ct, const std::string& png, const std::string& description, const std::string& path)
+{
+  const DecodedPNG picture = DecodePNG(png);
+  if (picture.bitDepth > 8 || picture.columns > 65535 || picture.rows > 65535)
+    throw InputError(png, "a Secondary Capture of the report needs an 8-bit picture");
+  const bool colour = picture.channels >= 3;
+  const size_t pixels = static_cast<size_t>(picture.columns) * picture.rows;
+  std::vector<uint8_t> samples(pixels * (colour ? 3 : 1));
+  for (size_t i = 0; i < pixels; ++i)
+    for (int c = 0; c < (colour ? 3 : 1); ++c)
+      samples[i * (colour ? 3 : 1) + c] = static_cast<uint8_t>(picture.samples[i * picture.channels + c]);
+  if (ct.files.empty() || ct.studyInstanceUID.empty())
+    throw InputError(ct.directory, "the CT series has no Study Instance UID to join");
+  gdcm::Trace::WarningOff();
+  gdcm::Writer writer;
+  gdcm::DataSet& ds = writer.GetFile().GetDataSet();
+  dicom::CopyPatientAndStudy(ct.files.front(), ds);
+  Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
+  const std::string sopInstanceUID = NewDICOMUID();
+  Put(ds, 0x0008, 0x0016, gdcm::VR::UI, "1.2.840.10008.5.1.4.1.1.7"); // Secondary Capture Image Storage
+  Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
+  dicom::PutNow(ds);
+  Put(ds, 0x0008, 0x0008, gdcm::VR::CS, "DERIVED\\SECONDARY");
+  Put(ds, 0x0008, 0x0060, gdcm::VR::CS, "OT");
+  Put(ds, 0x0008, 0x0064, gdcm::VR::CS, "WSD");
+  Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
+  Put(ds, 0x0008, 0x103e, gdcm::VR::LO, "xpose registration report");
+  Put(ds, 0x0020, 0x4000, gdcm::VR::LT, description); // Image Comments
+  Put(ds, 0x0020, 0x000e, gdcm::VR::UI, NewDICOMUID());
+  Put(ds, 0x0020, 0x0011, gdcm::VR::IS, "1");
+  Put(ds, 0x0020, 0x0013, gdcm::VR::IS, "1");
+  Put(ds, 0x0020, 0x0020, gdcm::VR::CS, "");
+  Put(ds, 0x0020, 0x0060, gdcm::VR::CS, "");
+  Put(ds, 0x0028, 0x0004, gdcm::VR::CS, colour ? "RGB" : "MONOCHROME2");
+  std::vector<std::pair<uint16_t, uint16_t>> shorts = { { 0x0002, colour ? 3 : 1 }, { 0x0010, static_cast<uint16_t>(picture.rows) },
+    { 0x0011, static_cast<uint16_t>(picture.columns) }, { 0x0100, 8 }, { 0x0101, 8 }, { 0x0102, 7 }, { 0x0103, 0 } };
+  if (colour)
+    shorts.push_back({ 0x0006, 0 }); // Planar Configuration: colour by pixel
+  for (const auto& [element, value] : shorts)
+  {
+    gdcm::DataElement de(gdcm::Tag(0x0028, element));
+    de.SetVR(gdcm::VR::US);
+    de.SetByteValue(reinterpret_cast<const char*>(&value), 2);
+    ds.Replace(de);
+  }
+  gdcm::DataElement data(gdcm::Tag(0x7fe0, 0x0010));
+  data.SetVR(gdcm::VR::OB);
+  if (samples.size() % 2)
+    samples.push_back(0);
+  data.SetByteValue(reinterpret_cast<const char*>(samples.data()), static_cast<uint32_t>(samples.size()));
+  ds.Replace(data);
+  writer.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
+  writer.SetFileName(path.c_str());
+  if (!writer.Write())
+  {
+    std::remove(path.c_str());
+    throw Error(path, "cannot write the DICOM Secondary Capture");
+  }
+  return sopInstanceUID;
 }
 
 std::vector<std::string> RTImageDisagreements(

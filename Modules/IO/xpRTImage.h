@@ -1,7 +1,8 @@
 /**
  * @file xpRTImage.h
  * @brief DRRs as DICOM RT Images, with enough geometry in their tags to rebuild the imager, and
- *        the imager an RT Image's tags describe (xpRTImageGeometry.h gives the conventions).
+ *        the imager an RT Image's tags describe (xpRTImageGeometry.h gives the conventions); the
+ *        report's picture as a Secondary Capture beside them.
  */
 #ifndef xpRTImage_h
 #define xpRTImage_h
@@ -48,6 +49,14 @@ VTKXPIO_EXPORT std::string WriteRTImageDRR(
  * and the tag when one is missing, malformed or contradicts another.
  */
 VTKXPIO_EXPORT XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIsocenter);
+
+/**
+ * Writes the picture in the PNG file `png` (the report's summary, 8-bit grey or colour) as a
+ * Secondary Capture image in the CT's study, into `path`. Returns the SOP Instance UID. Throws
+ * xp::InputError naming the PNG when it cannot be decoded, xp::Error when `path` cannot be written.
+ */
+VTKXPIO_EXPORT std::string WriteSecondaryCapture(
+  const CTSeriesInfo& ct, const std::string& png, const std::string& description, const std::string& path);
 
 /**
  * Where the geometry tags of the RT Image at `path` disagree with `view` (a geometry file's

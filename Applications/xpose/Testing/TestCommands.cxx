@@ -537,7 +537,12 @@ TEST(Commands, RegisterWritesAReportThatReportRebuilds)
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   xp::RegisterOptions options = RegisterSimulated("cmd-report-sim", "cmd-report");
   options.reportDirectory = "cmd-report/report";
+  options.dicomOutputDirectory = "cmd-report/dicom";
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+  // With --dicom-out the summary goes beside the REG as a Secondary Capture of the same picture.
+  const std::string secondaryCapture = ReadText("cmd-report/dicom/report.dcm");
+  EXPECT_NE(secondaryCapture.find("1.2.840.10008.5.1.4.1.1.7"), std::string::npos) << "a Secondary Capture";
+  EXPECT_GT(secondaryCapture.size(), 1000u * 600u * 3u) << "the summary's RGB pixels";
 
   for (const std::string& file : ReportPictures())
   {

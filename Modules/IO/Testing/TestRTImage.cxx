@@ -5,6 +5,7 @@
 #include "xpDICOMSeries.h"
 #include "xpDICOMSeriesWriter.h"
 #include "xpError.h"
+#include "xpImageIO.h"
 #include "xpRTImage.h"
 #include "xpSpatialRegistration.h"
 #include "xpTestFolders.h"
@@ -14,6 +15,8 @@
 #include <fstream>
 #include <gtest/gtest.h>
 #include <sstream>
+#include <vtkImageData.h>
+#include <vtkNew.h>
 
 using xp::testing::FreshFolder;
 
@@ -138,4 +141,28 @@ TEST(RTImage, DisagreementsWithAGeometryFileNameTheTagAndBothValues)
   EXPECT_NE(moved[0].find("has 1501.99"), std::string::npos) << moved[0];
   EXPECT_NE(moved[1].find("(3002,000D)"), std::string::npos) << moved[1];
   EXPECT_TRUE(xp::RTImageDisagreements(ct.files.front(), a, reference.isocenter).empty()) << "a CT image has no imager";
+}
+
+TEST(SecondaryCapture, TheReportPictureIsAValidImageInTheCTsStudy)
+{
+  const std::string dir = FreshFolder("secondary-capture");
+  const xp::CTSeriesInfo ct = SmallSeries(dir + "/ct");
+  vtkNew<vtkImageData> picture;
+  picture->SetDimensions(30, 20, 1);
+  picture->AllocateScalars(VTK_UNSIGNED_CHAR, 3);
+  auto* rgb = static_cast<unsigned char*>(picture->GetScalarPointer());
+  for (int i = 0; i < 30 * 20 * 3; ++i)
+    rgb[i] = static_cast<unsigned char>(i % 251);
+  xp::WritePNG(picture, dir + "/summary.png");
+  const std::string path = dir + "/report.dcm";
+  const std::string uid = xp::WriteSecondaryCapture(ct, dir + "/summary.png", "xpose registration report: status ok", path);
+  EXPECT_EQ(uid.rfind("2.25.", 0), 0u);
+  EXPECT_THROW(xp::WriteSecondaryCapture(ct, dir + "/no-such.png", "", dir + "/x.dcm"), xp::InputError);
+  if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "dciodvfy (Debian package dicom3tools) not installed: the IOD check is skipped";
+  std::system(("dciodvfy " + path + " > " + path + ".txt 2>&1").c_str());
+  std::ifstream in(path + ".txt");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str().find("Error"), std::string::npos) << text.str();
 }
