@@ -52,6 +52,13 @@ xp::RTImageDRR DRROf(const xp::XRayView& view)
   return drr;
 }
 
+/** dcmtk, an independent reader, reads the whole file without complaint (when installed). */
+void ExpectDcmtkReads(const std::string& path)
+{
+  if (std::system("command -v dcmdump > /dev/null 2>&1") == 0)
+    EXPECT_EQ(std::system(("dcmdump -q " + path + " > /dev/null").c_str()), 0) << path;
+}
+
 } // namespace
 
 TEST(RTImage, DRRsAreValidAndTheirTagsGiveBackTheImager)
@@ -66,6 +73,7 @@ TEST(RTImage, DRRsAreValidAndTheirTagsGiveBackTheImager)
     const xp::XRayView view = panel.Resampled(128, 96);
     const std::string path = dir + "/drr_" + view.name + ".dcm";
     xp::WriteRTImageDRR(ct, DRROf(view), series, ++instance, path);
+    ExpectDcmtkReads(path);
     const xp::XRayView back = xp::ReadRTImageView(path, reference.isocenter);
     EXPECT_EQ(back.name, view.name);
     EXPECT_LT((back.source - view.source).norm(), 0.1);
@@ -157,6 +165,7 @@ TEST(SecondaryCapture, TheReportPictureIsAValidImageInTheCTsStudy)
   const std::string path = dir + "/report.dcm";
   const std::string uid = xp::WriteSecondaryCapture(ct, dir + "/summary.png", "xpose registration report: status ok", path);
   EXPECT_EQ(uid.rfind("2.25.", 0), 0u);
+  ExpectDcmtkReads(path);
   EXPECT_THROW(xp::WriteSecondaryCapture(ct, dir + "/no-such.png", "", dir + "/x.dcm"), xp::InputError);
   if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
     GTEST_SKIP() << "dciodvfy (Debian package dicom3tools) not installed: the IOD check is skipped";

@@ -105,6 +105,8 @@ TEST(SpatialRegistration, WritesAValidREGLinkedToTheCT)
   EXPECT_EQ(uid.rfind("2.25.", 0), 0u);
   EXPECT_LE(uid.size(), 64u);
 
+  if (std::system("command -v dcmdump > /dev/null 2>&1") == 0) // dcmtk, an independent reader
+    EXPECT_EQ(std::system(("dcmdump -q " + dir + "/reg.dcm > /dev/null").c_str()), 0);
   gdcm::Reader reader;
   reader.SetFileName((dir + "/reg.dcm").c_str());
   ASSERT_TRUE(reader.Read());
