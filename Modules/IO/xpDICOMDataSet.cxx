@@ -6,6 +6,7 @@
 #include <gdcmSequenceOfItems.h>
 
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 
 namespace xp
@@ -120,6 +121,44 @@ void PutNow(gdcm::DataSet& ds)
   Put(ds, 0x0008, 0x0013, gdcm::VR::TM, time);
   Put(ds, 0x0008, 0x0023, gdcm::VR::DA, date); // Content Date
   Put(ds, 0x0008, 0x0033, gdcm::VR::TM, time);
+}
+
+void PutUS(gdcm::DataSet& ds, uint16_t group, uint16_t element, uint16_t value)
+{
+  gdcm::DataElement de(gdcm::Tag(group, element));
+  de.SetVR(gdcm::VR::US);
+  de.SetByteValue(reinterpret_cast<const char*>(&value), 2);
+  ds.Replace(de);
+}
+
+void PutPixelData(gdcm::DataSet& ds, gdcm::VR vr, const void* pixels, size_t bytes)
+{
+  std::string data(static_cast<const char*>(pixels), bytes);
+  if (data.size() % 2)
+    data.push_back('\0');
+  gdcm::DataElement de(gdcm::Tag(0x7fe0, 0x0010));
+  de.SetVR(vr);
+  de.SetByteValue(data.data(), static_cast<uint32_t>(data.size()));
+  ds.Replace(de);
+}
+
+bool GetFL(const gdcm::DataSet& ds, const gdcm::Tag& tag, float& value)
+{
+  if (!ds.FindDataElement(tag) || !ds.GetDataElement(tag).GetByteValue() || ds.GetDataElement(tag).GetByteValue()->GetLength() != 4)
+    return false;
+  std::memcpy(&value, ds.GetDataElement(tag).GetByteValue()->GetPointer(), 4);
+  return true;
+}
+
+void WriteFile(gdcm::Writer& writer, const std::string& path, const std::string& what)
+{
+  writer.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
+  writer.SetFileName(path.c_str());
+  if (!writer.Write())
+  {
+    std::remove(path.c_str());
+    throw Error(path, "cannot write the DICOM " + what);
+  }
 }
 
 } // namespace dicom

@@ -7,7 +7,9 @@
 #define xpDICOMDataSet_h
 
 #include <gdcmDataSet.h>
+#include <gdcmWriter.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -33,6 +35,17 @@ std::string Value(const gdcm::DataSet& ds, const gdcm::Tag& tag);
 void CopyPatientAndStudy(const std::string& ctFile, gdcm::DataSet& ds);
 /** Content / instance creation date and time (DA, TM) of now, local time. */
 void PutNow(gdcm::DataSet& ds);
+/** A binary unsigned short (US) element, little-endian as the transfer syntax. */
+void PutUS(gdcm::DataSet& ds, uint16_t group, uint16_t element, uint16_t value);
+/** Pixel data (7FE0,0010) of `bytes` bytes (padded to even length) as `vr` (OB or OW). */
+void PutPixelData(gdcm::DataSet& ds, gdcm::VR vr, const void* pixels, size_t bytes);
+/** The binary float (FL) element `tag`, if present and four bytes long. */
+bool GetFL(const gdcm::DataSet& ds, const gdcm::Tag& tag, float& value);
+/**
+ * Writes `writer`'s data set to `path` (explicit VR little endian, file meta information
+ * filled in); on failure removes what was written and throws xp::Error naming `path` and `what`.
+ */
+void WriteFile(gdcm::Writer& writer, const std::string& path, const std::string& what);
 
 } // namespace dicom
 } // namespace xp

@@ -68,6 +68,18 @@ std::vector<double> Read(const gdcm::DataSet& ds, uint16_t group, uint16_t eleme
   return values;
 }
 
+/** The Image Pixel module's numbers: unsigned samples, `stored` of `allocated` bits each. */
+void PutImagePixel(gdcm::DataSet& ds, int rows, int columns, int samples, uint16_t allocated, uint16_t stored)
+{
+  dicom::PutUS(ds, 0x0028, 0x0002, static_cast<uint16_t>(samples));
+  dicom::PutUS(ds, 0x0028, 0x0010, static_cast<uint16_t>(rows));
+  dicom::PutUS(ds, 0x0028, 0x0011, static_cast<uint16_t>(columns));
+  dicom::PutUS(ds, 0x0028, 0x0100, allocated);
+  dicom::PutUS(ds, 0x0028, 0x0101, stored);
+  dicom::PutUS(ds, 0x0028, 0x0102, static_cast<uint16_t>(stored - 1));
+  dicom::PutUS(ds, 0x0028, 0x0103, 0);
+}
+
 } // namespace
 
 std::string WriteRTImageDRR(
@@ -141,31 +153,12 @@ std::string WriteRTImageDRR(
 
   // 12-bit pixels, bone dark as in a transmission image.
   Put(ds, 0x0028, 0x0004, gdcm::VR::CS, "MONOCHROME2");
-  const uint16_t samples = 1, rows = static_cast<uint16_t>(drr.view.Rows()), columns = static_cast<uint16_t>(drr.view.Columns()),
-                 allocated = 16, stored = 12, high = 11, representation = 0;
-  const std::pair<uint16_t, uint16_t> shorts[] = { { 0x0002, samples }, { 0x0010, rows }, { 0x0011, columns },
-    { 0x0100, allocated }, { 0x0101, stored }, { 0x0102, high }, { 0x0103, representation } };
-  for (const auto& [element, value] : shorts)
-  {
-    gdcm::DataElement de(gdcm::Tag(0x0028, element));
-    de.SetVR(gdcm::VR::US);
-    de.SetByteValue(reinterpret_cast<const char*>(&value), 2);
-    ds.Replace(de);
-  }
+  PutImagePixel(ds, drr.view.Rows(), drr.view.Columns(), 1, 16, 12);
   Put(ds, 0x0028, 0x1050, gdcm::VR::DS, "2048"); // Window Center
   Put(ds, 0x0028, 0x1051, gdcm::VR::DS, "4096"); // Window Width
-  gdcm::DataElement pixels(gdcm::Tag(0x7fe0, 0x0010));
-  pixels.SetVR(gdcm::VR::OW);
-  pixels.SetByteValue(reinterpret_cast<const char*>(drr.pixels.data()), static_cast<uint32_t>(pixelCount * 2));
-  ds.Replace(pixels);
+  dicom::PutPixelData(ds, gdcm::VR::OW, drr.pixels.data(), pixelCount * 2);
 
-  writer.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
-  writer.SetFileName(path.c_str());
-  if (!writer.Write())
-  {
-    std::remove(path.c_str());
-    throw Error(path, "cannot write the DICOM RT Image");
-  }
+  dicom::WriteFile(writer, path, "RT Image");
   return sopInstanceUID;
 }
 
@@ -192,12 +185,9 @@ XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIso
     throw InputError(path, "Image Plane Pixel Spacing (3002,0011) must be positive");
   g.pixelSpacing = Eigen::Vector2d(spacing[0], spacing[1]);
   g.gantryAngle = Read(ds, 0x300a, 0x011e, 1, "Gantry Angle", path, true)[0];
-  const gdcm::Tag pitchTag(0x300a, 0x014a);
-  if (ds.FindDataElement(pitchTag) && ds.GetDataElement(pitchTag).GetByteValue() &&
-    ds.GetDataElement(pitchTag).GetByteValue()->GetLength() == 4)
+  float pitch = 0.0f;
+  if (dicom::GetFL(ds, gdcm::Tag(0x300a, 0x014a), pitch))
   {
-    float pitch = 0.0f;
-    std::memcpy(&pitch, ds.GetDataElement(pitchTag).GetByteValue()->GetPointer(), 4);
     if (!std::isfinite(pitch) || std::abs(pitch) >= 90.0f)
       throw InputError(path, "Gantry Pitch Angle (300A,014A) must be finite and within +-90 degrees");
     g.gantryPitch = pitch;
@@ -266,30 +256,11 @@ std::string WriteSecondaryCapture(
   Put(ds, 0x0020, 0x0020, gdcm::VR::CS, "");
   Put(ds, 0x0020, 0x0060, gdcm::VR::CS, "");
   Put(ds, 0x0028, 0x0004, gdcm::VR::CS, colour ? "RGB" : "MONOCHROME2");
-  std::vector<std::pair<uint16_t, uint16_t>> shorts = { { 0x0002, colour ? 3 : 1 }, { 0x0010, static_cast<uint16_t>(picture.rows) },
-    { 0x0011, static_cast<uint16_t>(picture.columns) }, { 0x0100, 8 }, { 0x0101, 8 }, { 0x0102, 7 }, { 0x0103, 0 } };
+  PutImagePixel(ds, picture.rows, picture.columns, colour ? 3 : 1, 8, 8);
   if (colour)
-    shorts.push_back({ 0x0006, 0 }); // Planar Configuration: colour by pixel
-  for (const auto& [element, value] : shorts)
-  {
-    gdcm::DataElement de(gdcm::Tag(0x0028, element));
-    de.SetVR(gdcm::VR::US);
-    de.SetByteValue(reinterpret_cast<const char*>(&value), 2);
-    ds.Replace(de);
-  }
-  gdcm::DataElement data(gdcm::Tag(0x7fe0, 0x0010));
-  data.SetVR(gdcm::VR::OB);
-  if (samples.size() % 2)
-    samples.push_back(0);
-  data.SetByteValue(reinterpret_cast<const char*>(samples.data()), static_cast<uint32_t>(samples.size()));
-  ds.Replace(data);
-  writer.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
-  writer.SetFileName(path.c_str());
-  if (!writer.Write())
-  {
-    std::remove(path.c_str());
-    throw Error(path, "cannot write the DICOM Secondary Capture");
-  }
+    dicom::PutUS(ds, 0x0028, 0x0006, 0); // Planar Configuration: colour by pixel
+  dicom::PutPixelData(ds, gdcm::VR::OB, samples.data(), samples.size());
+  dicom::WriteFile(writer, path, "Secondary Capture");
   return sopInstanceUID;
 }
 
@@ -338,12 +309,9 @@ std::vector<std::string> RTImageDisagreements(
         " has " + wantedText + " " + unit);
   };
   compare(0x300a, 0x011e, "Gantry Angle", { expected.gantryAngle }, 0.1, "deg", true);
-  const gdcm::Tag pitchTag(0x300a, 0x014a);
-  if (ds.FindDataElement(pitchTag) && ds.GetDataElement(pitchTag).GetByteValue() &&
-    ds.GetDataElement(pitchTag).GetByteValue()->GetLength() == 4)
+  float pitch = 0.0f;
+  if (dicom::GetFL(ds, gdcm::Tag(0x300a, 0x014a), pitch))
   {
-    float pitch = 0.0f;
-    std::memcpy(&pitch, ds.GetDataElement(pitchTag).GetByteValue()->GetPointer(), 4);
     if (!(std::abs(pitch - expected.gantryPitch) <= 0.1))
       differences.push_back("Gantry Pitch Angle (300A,014A) = " + DS(pitch) + " deg, the geometry file's imager " + view.name +
         " has " + DS(expected.gantryPitch) + " deg");

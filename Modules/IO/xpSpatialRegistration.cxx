@@ -135,13 +135,7 @@ std::string WriteSpatialRegistration(const CTSeriesInfo& ct, const SpatialRegist
   Put(series, 0x0020, 0x000e, gdcm::VR::UI, ct.seriesInstanceUID);
   PutSequence(ds, 0x0008, 0x1115, { series });
 
-  writer.GetFile().GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
-  writer.SetFileName(path.c_str());
-  if (!writer.Write())
-  {
-    std::remove(path.c_str());
-    throw Error(path, "cannot write the DICOM Spatial Registration");
-  }
+  dicom::WriteFile(writer, path, "Spatial Registration");
   return sopInstanceUID;
 }
 
