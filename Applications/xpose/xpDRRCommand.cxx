@@ -160,11 +160,12 @@ void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
     images.push_back(DisplayImage(drr->GetOutput(1), drr->GetOutput(2)));
     images.push_back(Transmission(drr->GetOutput(1), drr->GetOutput(2)));
     vtkImageData* made[3] = { images[images.size() - 3], images[images.size() - 2], images.back() };
+    // The staged paths are taken here: StagedOutputDirectory records each, and is not thread-safe.
     const std::string stem = "drr_" + view.name;
-    writes.emplace_back([&output, stem, image = made[0]] { WritePNG(image, output.Path(stem + ".png")); });
-    writes.emplace_back([&output, stem, image = made[1]] { WritePNG(image, output.Path(stem + "_display.png")); });
-    writes.emplace_back([&output, stem, rendered, image = made[2]]
-      { WriteDetectorMetaImage(image, rendered, output.Path(stem + ".mha")); });
+    writes.emplace_back([path = output.Path(stem + ".png"), image = made[0]] { WritePNG(image, path); });
+    writes.emplace_back([path = output.Path(stem + "_display.png"), image = made[1]] { WritePNG(image, path); });
+    writes.emplace_back([path = output.Path(stem + ".mha"), rendered, image = made[2]]
+      { WriteDetectorMetaImage(image, rendered, path); });
     afterEachView();
     const double seconds = drr->GetLastRenderSeconds();
     if (v == 0)
@@ -276,8 +277,10 @@ int RunDRR(const DRROptions& options)
   std::printf("misalignment: %s\n", pose.ToString().c_str());
   StagedOutputDirectory output(options.outputDirectory);
   std::vector<RTImageDRR> rtImages;
-  RenderAndWriteViews(drr, setup.geometry, masks, output,
-    [&] { rtImages.push_back(RTImageOfLastDRR(setup, "DRR by xpose, patient misalignment " + pose.ToString())); });
+  RenderAndWriteViews(drr, setup.geometry, masks, output, [&] {
+    if (dicomCT) // a copy of each DRR only when it is written as DICOM
+      rtImages.push_back(RTImageOfLastDRR(setup, "DRR by xpose, patient misalignment " + pose.ToString()));
+  });
   if (dicomCT)
   {
     StagedOutputDirectory dicomOutput(options.dicomOutputDirectory);

@@ -25,31 +25,13 @@ std::shared_ptr<uint16_t> AllocateVoxels(size_t count)
 
 } // namespace
 
-AttenuationVolume::AttenuationVolume(
-  const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater,
-  double airThreshold)
-  : Dims(dims)
-  , Padded(dims + Eigen::Vector3i::Constant(2))
-  , Water(muWater)
-{
-  this->Build(hounsfield, indexToCT, airThreshold);
-}
-
-AttenuationVolume::AttenuationVolume(
-  const int16_t* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater,
-  double airThreshold)
-  : Dims(dims)
-  , Padded(dims + Eigen::Vector3i::Constant(2))
-  , Water(muWater)
-{
-  this->Build(hounsfield, indexToCT, airThreshold);
-}
-
 template <typename HU>
-void AttenuationVolume::Build(const HU* hounsfield, const Eigen::Affine3d& indexToCT, double airThreshold)
+AttenuationVolume::AttenuationVolume(
+  const HU* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater, double airThreshold)
+  : Dims(dims)
+  , Padded(dims + Eigen::Vector3i::Constant(2))
+  , Water(muWater)
 {
-  const Eigen::Vector3i& dims = this->Dims;
-  const double muWater = this->Water;
   if (dims.minCoeff() < 1)
   {
     throw Error("attenuation volume: empty CT");
@@ -147,6 +129,11 @@ void AttenuationVolume::Build(const HU* hounsfield, const Eigen::Affine3d& index
       }
     });
 }
+
+template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
+  const float*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
+template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
+  const int16_t*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
 
 AttenuationVolume AttenuationVolume::Halved() const
 {

@@ -44,10 +44,8 @@ public:
    * @param muWater    attenuation of water (1/mm)
    * @param airThreshold HU below which a voxel is air (mu = 0)
    */
-  AttenuationVolume(const float* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
-    double muWater, double airThreshold = DefaultAirThreshold);
-  /** The same from 16-bit HU, as the CT readers keep whole-number HU. */
-  AttenuationVolume(const int16_t* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
+  template <typename HU> // float, or int16_t as the CT readers keep whole-number HU
+  AttenuationVolume(const HU* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
     double muWater, double airThreshold = DefaultAirThreshold);
 
   static constexpr double DefaultAirThreshold = -950.0;
@@ -86,9 +84,6 @@ public:
   double OccupiedFraction() const;
 
 private:
-  template <typename HU>
-  void Build(const HU* hounsfield, const Eigen::Affine3d& indexToCT, double airThreshold);
-
   /** Offset in Voxels() of original voxel (i, j, k). */
   size_t Offset(int i, int j, int k) const
   {

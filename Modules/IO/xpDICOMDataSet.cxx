@@ -1,6 +1,9 @@
 #include "xpDICOMDataSet.h"
 
 #include "xpError.h"
+#include "xpSpatialRegistration.h"
+
+#include <gdcmTrace.h>
 
 #include <gdcmReader.h>
 #include <gdcmSequenceOfItems.h>
@@ -107,6 +110,28 @@ void CopyPatientAndStudy(const std::string& ctFile, gdcm::DataSet& ds)
       continue; // the default repertoire
     Put(ds, copied[i][0], copied[i][1], copiedVR[i], Value(source, tag));
   }
+}
+
+std::string BeginInstance(gdcm::DataSet& ds, const CTSeriesInfo& ct, const std::string& sopClassUID,
+  const std::string& modality, const std::string& seriesDescription, const std::string& seriesUID)
+{
+  if (ct.files.empty() || ct.studyInstanceUID.empty())
+    throw InputError(ct.files.empty() ? ct.directory : ct.files.front(),
+      "Study Instance UID (0020,000D) missing: an object of the CT's study cannot be made");
+  gdcm::Trace::WarningOff(); // xpose reports its own errors
+  CopyPatientAndStudy(ct.files.front(), ds);
+  const std::string sopInstanceUID = NewDICOMUID();
+  Put(ds, 0x0008, 0x0016, gdcm::VR::UI, sopClassUID);
+  Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
+  PutNow(ds);
+  Put(ds, 0x0008, 0x0060, gdcm::VR::CS, modality);
+  Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
+  Put(ds, 0x0008, 0x103e, gdcm::VR::LO, seriesDescription.substr(0, 64));
+  Put(ds, 0x0018, 0x1020, gdcm::VR::LO, "xpose");
+  Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
+  Put(ds, 0x0020, 0x000e, gdcm::VR::UI, seriesUID);
+  Put(ds, 0x0020, 0x0011, gdcm::VR::IS, "1");
+  return sopInstanceUID;
 }
 
 void PutNow(gdcm::DataSet& ds)

@@ -6,6 +6,8 @@
 #ifndef xpDICOMDataSet_h
 #define xpDICOMDataSet_h
 
+#include "xpDICOMSeries.h"
+
 #include <gdcmDataSet.h>
 #include <gdcmWriter.h>
 
@@ -33,6 +35,15 @@ std::string Value(const gdcm::DataSet& ds, const gdcm::Tag& tag);
  * ones empty where the CT has none). Throws xp::InputError naming the file when it cannot be read.
  */
 void CopyPatientAndStudy(const std::string& ctFile, gdcm::DataSet& ds);
+/**
+ * Starts an instance of the CT's study in `ds`: patient and study copied from the CT's first
+ * file, SOP class and a new SOP Instance UID (returned), creation and content date and time,
+ * modality, xpose as manufacturer and software, and series `seriesUID` (number 1). Throws
+ * xp::InputError naming the CT when it has no file or no Study Instance UID.
+ */
+std::string BeginInstance(gdcm::DataSet& ds, const CTSeriesInfo& ct, const std::string& sopClassUID,
+  const std::string& modality, const std::string& seriesDescription, const std::string& seriesUID);
+
 /** Content / instance creation date and time (DA, TM) of now, local time. */
 void PutNow(gdcm::DataSet& ds);
 /** A binary unsigned short (US) element, little-endian as the transfer syntax. */

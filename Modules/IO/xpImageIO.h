@@ -67,7 +67,8 @@ public:
    */
   static void CheckWritable(const std::string& directory);
 
-  /** Where to write `fileName` now (inside the staging folder). */
+  /** Where to write `fileName` now (inside the staging folder); records the name, so call it
+   *  from one thread (the writing itself may happen on others). */
   std::string Path(const std::string& fileName);
   /** The staging folder itself, for writers that create files by name; register each with Track. */
   const std::string& StagingFolder() const { return this->Staging; }

@@ -23,6 +23,17 @@ namespace
 {
 
 constexpr int TimeoutSeconds = 30;
+// One answer is one DICOM file or one listing: far beyond any CT slice or X-ray.
+constexpr size_t MaxAnswerBytes = size_t(1) << 30;
+
+/** Orthanc identifiers are hexadecimal groups joined by '-': anything else is refused, as the
+ *  fetched files are named after them (no path may come from the archive). */
+const std::string& CheckedID(const std::string& id, const std::string& url)
+{
+  if (id.empty() || id.size() > 64 || id.find_first_not_of("0123456789abcdef-") != std::string::npos)
+    throw Error(url, "the archive answered with an identifier that is not Orthanc's: '" + id.substr(0, 64) + "'");
+  return id;
+}
 
 struct SocketCloser
 {
@@ -125,6 +136,8 @@ OrthancArchive::Response OrthancArchive::Request(
     if (n == 0)
       break;
     answer.append(buffer, static_cast<size_t>(n));
+    if (answer.size() > MaxAnswerBytes)
+      throw Error(this->Url + path, "the archive's answer exceeds " + std::to_string(MaxAnswerBytes >> 20) + " MiB");
   }
   const size_t headerEnd = answer.find("\r\n\r\n");
   int status = 0;
@@ -164,6 +177,14 @@ OrthancArchive::Response OrthancArchive::Request(
   return response;
 }
 
+std::string OrthancArchive::Get(const std::string& path) const
+{
+  const Response response = this->Request("GET", path);
+  if (response.status != 200)
+    throw Error(this->Url + path, "the archive answered " + std::to_string(response.status));
+  return response.body;
+}
+
 void OrthancArchive::CheckReachable() const
 {
   const Response response = this->Request("GET", "/system");
@@ -182,7 +203,7 @@ std::vector<std::string> OrthancArchive::Find(const std::string& level, const st
     throw Error(this->Url + "/tools/find", "the archive refused the query (" + std::to_string(response.status) + ")");
   std::vector<std::string> ids;
   for (const Json::Value& id : ParseJSON(response.body, this->Url))
-    ids.push_back(id.asString());
+    ids.push_back(CheckedID(id.asString(), this->Url));
   return ids;
 }
 
@@ -194,8 +215,7 @@ std::vector<ArchivedSeries> OrthancArchive::SeriesOfStudy(const std::string& stu
   std::vector<ArchivedSeries> series;
   for (const std::string& study : studies)
   {
-    const Response response = this->Request("GET", "/studies/" + study + "/series");
-    for (const Json::Value& s : ParseJSON(response.body, this->Url))
+    for (const Json::Value& s : ParseJSON(this->Get("/studies/" + study + "/series"), this->Url))
     {
       ArchivedSeries item;
       item.seriesInstanceUID = s["MainDicomTags"]["SeriesInstanceUID"].asString();
@@ -234,15 +254,15 @@ std::vector<std::string> OrthancArchive::FetchSeries(const std::string& seriesUI
   std::vector<std::string> files;
   for (const std::string& id : ids)
   {
-    const Json::Value instances = ParseJSON(this->Request("GET", "/series/" + id + "/instances").body, this->Url);
+    const Json::Value instances = ParseJSON(this->Get("/series/" + id + "/instances"), this->Url);
     for (const Json::Value& instance : instances)
     {
-      const std::string instanceId = instance["ID"].asString();
-      const Response file = this->Request("GET", "/instances/" + instanceId + "/file");
-      if (file.status != 200)
-        throw Error(this->Url + "/instances/" + instanceId, "cannot be fetched (" + std::to_string(file.status) + ")");
+      const std::string instanceId = CheckedID(instance["ID"].asString(), this->Url);
       const std::string path = directory + "/" + instanceId + ".dcm";
-      std::ofstream(path, std::ios::binary) << file.body;
+      std::ofstream out(path, std::ios::binary);
+      out << this->Get("/instances/" + instanceId + "/file");
+      if (!out)
+        throw Error(path, "cannot be written");
       files.push_back(path);
     }
   }
@@ -255,11 +275,9 @@ void OrthancArchive::FetchInstance(const std::string& sopInstanceUID, const std:
   if (ids.size() != 1)
     throw InputError("--xray-instance", "the archive at " + this->Url + " holds " + std::to_string(ids.size()) +
         " instances " + sopInstanceUID + ", expected one");
-  const Response file = this->Request("GET", "/instances/" + ids.front() + "/file");
-  if (file.status != 200)
-    throw Error(this->Url + "/instances/" + ids.front(), "cannot be fetched (" + std::to_string(file.status) + ")");
+  const std::string file = this->Get("/instances/" + ids.front() + "/file");
   std::ofstream out(path, std::ios::binary);
-  out << file.body;
+  out << file;
   if (!out)
     throw Error(path, "cannot be written");
 }
@@ -286,7 +304,7 @@ void OrthancArchive::Store(const std::vector<std::string>& files) const
       const Json::Value answer = ParseJSON(response.body, this->Url);
       if (answer.get("Status", "").asString() == "AlreadyStored")
         continue; // stored before this call: not ours to delete
-      stored.push_back(answer["ID"].asString());
+      stored.push_back(CheckedID(answer["ID"].asString(), this->Url));
       continue;
     }
     for (const std::string& id : stored)

@@ -59,6 +59,8 @@ private:
   };
   Response Request(const std::string& method, const std::string& path, const std::string& body = "",
     const std::string& contentType = "application/json") const;
+  /** GET `path`, which must answer 200 (the `what` of the error otherwise). */
+  std::string Get(const std::string& path) const;
   /** The Orthanc identifiers of the resources at `level` whose `tag` is `value`. */
   std::vector<std::string> Find(const std::string& level, const std::string& tag, const std::string& value) const;
 

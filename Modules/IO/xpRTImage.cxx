@@ -89,29 +89,17 @@ std::string WriteRTImageDRR(
   const size_t pixelCount = static_cast<size_t>(drr.view.Columns()) * drr.view.Rows();
   if (drr.pixels.size() != pixelCount)
     throw Error(path, "internal: the DRR's pixels do not match its imager's size");
-  if (ct.files.empty() || ct.frameOfReferenceUID.empty() || ct.studyInstanceUID.empty())
-    throw InputError(ct.directory, "the CT series has no Study Instance UID or Frame of Reference UID to link the DRR to");
-  gdcm::Trace::WarningOff();
+  if (ct.frameOfReferenceUID.empty())
+    throw InputError(ct.directory, "the CT series has no Frame of Reference UID to link the DRR to");
   gdcm::Writer writer;
   gdcm::DataSet& ds = writer.GetFile().GetDataSet();
-  dicom::CopyPatientAndStudy(ct.files.front(), ds);
-  Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
-  const std::string sopInstanceUID = NewDICOMUID();
-  Put(ds, 0x0008, 0x0016, gdcm::VR::UI, RTImageStorage);
-  Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
-  dicom::PutNow(ds);
+  const std::string sopInstanceUID = dicom::BeginInstance(ds, ct, RTImageStorage, "RTIMAGE", "xpose DRRs", seriesUID);
   Put(ds, 0x0008, 0x0008, gdcm::VR::CS, "DERIVED\\SECONDARY\\DRR");
-  Put(ds, 0x0008, 0x0060, gdcm::VR::CS, "RTIMAGE");
   Put(ds, 0x0008, 0x0064, gdcm::VR::CS, "WSD"); // Conversion Type: workstation
-  Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
-  Put(ds, 0x0008, 0x103e, gdcm::VR::LO, "xpose DRRs");
   Put(ds, 0x0008, 0x1070, gdcm::VR::PN, "");    // Operators' Name: none, software
   Put(ds, 0x3002, 0x0020, gdcm::VR::SH, "");    // Radiation Machine Name: an imaging room, not a linac
   Put(ds, 0x300a, 0x00b3, gdcm::VR::CS, "");    // Primary Dosimeter Unit: no beam was delivered
-  Put(ds, 0x0018, 0x1020, gdcm::VR::LO, "xpose");
   Put(ds, 0x0018, 0x5100, gdcm::VR::CS, drr.patientPosition);
-  Put(ds, 0x0020, 0x000e, gdcm::VR::UI, seriesUID);
-  Put(ds, 0x0020, 0x0011, gdcm::VR::IS, "1");
   Put(ds, 0x0020, 0x0013, gdcm::VR::IS, std::to_string(instanceNumber));
   Put(ds, 0x0020, 0x0020, gdcm::VR::CS, "");    // Patient Orientation: given by the geometry below
   Put(ds, 0x0020, 0x0052, gdcm::VR::UI, ct.frameOfReferenceUID);
@@ -233,25 +221,13 @@ std::string WriteSecondaryCapture(
   for (size_t i = 0; i < pixels; ++i)
     for (int c = 0; c < (colour ? 3 : 1); ++c)
       samples[i * (colour ? 3 : 1) + c] = static_cast<uint8_t>(picture.samples[i * picture.channels + c]);
-  if (ct.files.empty() || ct.studyInstanceUID.empty())
-    throw InputError(ct.directory, "the CT series has no Study Instance UID to join");
-  gdcm::Trace::WarningOff();
   gdcm::Writer writer;
   gdcm::DataSet& ds = writer.GetFile().GetDataSet();
-  dicom::CopyPatientAndStudy(ct.files.front(), ds);
-  Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
-  const std::string sopInstanceUID = NewDICOMUID();
-  Put(ds, 0x0008, 0x0016, gdcm::VR::UI, "1.2.840.10008.5.1.4.1.1.7"); // Secondary Capture Image Storage
-  Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
-  dicom::PutNow(ds);
+  const std::string sopInstanceUID = dicom::BeginInstance(
+    ds, ct, "1.2.840.10008.5.1.4.1.1.7", "OT", "xpose registration report", NewDICOMUID()); // Secondary Capture
   Put(ds, 0x0008, 0x0008, gdcm::VR::CS, "DERIVED\\SECONDARY");
-  Put(ds, 0x0008, 0x0060, gdcm::VR::CS, "OT");
   Put(ds, 0x0008, 0x0064, gdcm::VR::CS, "WSD");
-  Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
-  Put(ds, 0x0008, 0x103e, gdcm::VR::LO, "xpose registration report");
   Put(ds, 0x0020, 0x4000, gdcm::VR::LT, description); // Image Comments
-  Put(ds, 0x0020, 0x000e, gdcm::VR::UI, NewDICOMUID());
-  Put(ds, 0x0020, 0x0011, gdcm::VR::IS, "1");
   Put(ds, 0x0020, 0x0013, gdcm::VR::IS, "1");
   Put(ds, 0x0020, 0x0020, gdcm::VR::CS, "");
   Put(ds, 0x0020, 0x0060, gdcm::VR::CS, "");

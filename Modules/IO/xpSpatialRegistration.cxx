@@ -89,25 +89,12 @@ std::string WriteSpatialRegistration(const CTSeriesInfo& ct, const SpatialRegist
     throw InputError(first, "Study Instance UID (0020,000D) missing: the REG must join the CT's study");
   if (ct.frameOfReferenceUID.empty())
     throw InputError(first, "Frame of Reference UID (0020,0052) missing: the REG registers the CT's Frame of Reference");
-  gdcm::Trace::WarningOff();
-
   gdcm::Writer writer;
   gdcm::DataSet& ds = writer.GetFile().GetDataSet();
-  // Patient and General Study, as the CT has them.
-  dicom::CopyPatientAndStudy(first, ds);
-  Put(ds, 0x0020, 0x000d, gdcm::VR::UI, ct.studyInstanceUID);
-
-  // Series, equipment, the session's Frame of Reference and the instance.
-  const std::string sopInstanceUID = NewDICOMUID(), sessionFrame = NewDICOMUID();
-  Put(ds, 0x0008, 0x0016, gdcm::VR::UI, SpatialRegistrationStorage);
-  Put(ds, 0x0008, 0x0018, gdcm::VR::UI, sopInstanceUID);
-  dicom::PutNow(ds);
-  Put(ds, 0x0008, 0x0060, gdcm::VR::CS, "REG");
-  Put(ds, 0x0008, 0x0070, gdcm::VR::LO, "xpose");
-  Put(ds, 0x0008, 0x103e, gdcm::VR::LO, registration.seriesDescription.substr(0, 64));
-  Put(ds, 0x0018, 0x1020, gdcm::VR::LO, "xpose");
-  Put(ds, 0x0020, 0x000e, gdcm::VR::UI, NewDICOMUID());
-  Put(ds, 0x0020, 0x0011, gdcm::VR::IS, "1");
+  // Patient and study as the CT has them; a new series, instance and session Frame of Reference.
+  const std::string sopInstanceUID = dicom::BeginInstance(
+    ds, ct, SpatialRegistrationStorage, "REG", registration.seriesDescription, NewDICOMUID());
+  const std::string sessionFrame = NewDICOMUID();
   Put(ds, 0x0020, 0x0013, gdcm::VR::IS, "1");
   Put(ds, 0x0020, 0x0052, gdcm::VR::UI, sessionFrame);
   Put(ds, 0x0020, 0x0060, gdcm::VR::CS, ""); // Laterality: not a paired structure

@@ -84,6 +84,32 @@ int64_t Convert(const char* data, int64_t count, bool swap, double slope, double
   return firstBad.load() < count ? firstBad.load() : -1;
 }
 
+/** Calls f with a value of the C++ type of `type` (f(int16_t{}) for Int16, ...). */
+template <typename F>
+auto WithStoredType(VoxelType type, F&& f)
+{
+  switch (type)
+  {
+    case VoxelType::Int8:
+      return f(int8_t{});
+    case VoxelType::UInt8:
+      return f(uint8_t{});
+    case VoxelType::Int16:
+      return f(int16_t{});
+    case VoxelType::UInt16:
+      return f(uint16_t{});
+    case VoxelType::Int32:
+      return f(int32_t{});
+    case VoxelType::UInt32:
+      return f(uint32_t{});
+    case VoxelType::Float32:
+      return f(float{});
+    case VoxelType::Float64:
+      break;
+  }
+  return f(double{});
+}
+
 /** Reads the stored voxels a chunk at a time and converts each chunk in parallel; the first
  *  bad voxel in file order, or -1 (reading stops there). */
 template <typename T>
@@ -259,28 +285,12 @@ CTVolume MakeCTVolume(
     vtkSmartPointer<vtkShortArray> hu = NewHugePageShortArray(n);
     hu->SetName("HU");
     int16_t* out = hu->GetPointer(0);
-    switch (header.type)
-    {
-      case VoxelType::Int8:
-        ConvertStreamToShort<int8_t>(header, readVoxels, out);
-        break;
-      case VoxelType::UInt8:
-        ConvertStreamToShort<uint8_t>(header, readVoxels, out);
-        break;
-      case VoxelType::Int16:
-        if (!header.bigEndian && header.intercept == 0.0)
-          readVoxels(reinterpret_cast<char*>(out), header.DataBytes()); // already 16-bit HU
-        else
-          ConvertStreamToShort<int16_t>(header, readVoxels, out);
-        break;
-      default:
-        ConvertStreamToShort<uint16_t>(header, readVoxels, out);
-        break;
-    }
+    if (header.type == VoxelType::Int16 && !header.bigEndian && header.intercept == 0.0)
+      readVoxels(reinterpret_cast<char*>(out), header.DataBytes()); // already 16-bit HU
+    else
+      WithStoredType(header.type, [&](auto stored) { ConvertStreamToShort<decltype(stored)>(header, readVoxels, out); });
     image->GetPointData()->SetScalars(hu);
-    CTVolume volume;
-    volume.image = image;
-    return volume;
+    return CTVolume{ image };
   }
   vtkSmartPointer<vtkFloatArray> hu = NewHugePageFloatArray(n);
   hu->SetName("HU");
@@ -293,42 +303,14 @@ CTVolume MakeCTVolume(
   }
   else
   {
-    switch (header.type)
-    {
-      case VoxelType::Int8:
-        bad = ConvertStream<int8_t>(header, readVoxels, out);
-        break;
-      case VoxelType::UInt8:
-        bad = ConvertStream<uint8_t>(header, readVoxels, out);
-        break;
-      case VoxelType::Int16:
-        bad = ConvertStream<int16_t>(header, readVoxels, out);
-        break;
-      case VoxelType::UInt16:
-        bad = ConvertStream<uint16_t>(header, readVoxels, out);
-        break;
-      case VoxelType::Int32:
-        bad = ConvertStream<int32_t>(header, readVoxels, out);
-        break;
-      case VoxelType::UInt32:
-        bad = ConvertStream<uint32_t>(header, readVoxels, out);
-        break;
-      case VoxelType::Float32:
-        bad = ConvertStream<float>(header, readVoxels, out);
-        break;
-      case VoxelType::Float64:
-        bad = ConvertStream<double>(header, readVoxels, out);
-        break;
-    }
+    bad = WithStoredType(header.type, [&](auto stored) { return ConvertStream<decltype(stored)>(header, readVoxels, out); });
   }
   if (bad >= 0)
   {
     throw InputError(path, "voxel " + std::to_string(bad) + " is not finite or beyond +-1e6 HU after rescaling");
   }
   image->GetPointData()->SetScalars(hu);
-  CTVolume volume;
-  volume.image = image;
-  return volume;
+  return CTVolume{ image };
 }
 
 } // namespace xp

@@ -13,33 +13,19 @@ runs=${3:-7}
 type=${4:-short}
 xpose=${XPOSE:-$root/build/bin/xpose}
 geometry=$root/Data/geometry/stereo-oblique-90.json
-command -v plastimatch >/dev/null || { echo "plastimatch not found: apt-get install plastimatch" >&2; exit 2; }
-[ -x "$xpose" ] || { echo "xpose not built at $xpose" >&2; exit 2; }
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-cols=${size%x*}; rows=${size#*x}
+ct_type=$type
+source "$root/Utilities/Benchmarks/plastimatch-setup.sh"
 
-plastimatch convert --input "$ct" --output-img "$work/ct.mha" --output-type "$type" >/dev/null
-read -r iso < <(plastimatch header "$work/ct.mha" | awk '
-  /^Origin/ {o1=$3; o2=$4; o3=$5} /^Size/ {s1=$3; s2=$4; s3=$5} /^Spacing/ {p1=$3; p2=$4; p3=$5}
-  END {printf "%.3f %.3f %.3f\n", o1+(s1-1)/2*p1, o2+(s2-1)/2*p2, o3+(s3-1)/2*p3}')
-
-# The reference geometry's two views (compare-plastimatch.sh): panel 400 x 300 mm, SAD 1000,
-# SID 1500, gantry 225 and 315 degrees, isocentre at the CT centre.
-pm_drr() {
-  plastimatch drr -I "$work/ct.mha" -O "$work/pm_" -i exact -r "$cols $rows" -z "400 300" --sad 1000 --sid 1500 \
-    -o "$iso" --vup "0 0 1" -t pfm -y 3.926990817 -N 90 -a 2 >/dev/null
-}
+pm_exact() { pm_drr exact "$cols $rows"; }
 xp_drr() {
   "$xpose" drr --ct "$work/ct.mha" --geometry "$geometry" --size "$size" --out-dir "$work/xpose" >"$work/xpose.log"
 }
-seconds() { local s e; s=$(date +%s.%N); "$@"; e=$(date +%s.%N); echo "$e - $s" | bc -l; }
 median() { sort -g | awk '{v[NR]=$1} END {print (NR % 2) ? v[(NR+1)/2] : (v[NR/2] + v[NR/2+1]) / 2}'; }
 
-pm_drr; xp_drr # warm the page cache and the file system
+pm_exact; xp_drr # warm the page cache and the file system
 : >"$work/pm.txt"; : >"$work/xp.txt"
 for _ in $(seq "$runs"); do
-  seconds pm_drr >>"$work/pm.txt"
+  seconds pm_exact >>"$work/pm.txt"
   seconds xp_drr >>"$work/xp.txt"
 done
 pm=$(median <"$work/pm.txt"); xp=$(median <"$work/xp.txt")
