@@ -159,7 +159,8 @@ struct GeometryOptions
   std::vector<std::string> projectionMatrices; ///< one text file per imager
   std::vector<std::string> intrinsics;         ///< or K files, one per imager
   std::vector<std::string> extrinsics;         ///< with [R | t] files, one per imager
-  std::vector<std::string> dicom;              ///< or RT Images, one per imager (their own tags)
+  std::vector<std::string> dicom;              ///< or DICOM X-rays (RT Image, DX, CR, XA), one per imager
+  std::string patientPosition;                 ///< for a DX/CR/XA without Patient Position (0018,5100)
   std::string check;                           ///< with `dicom`: compare them with this geometry file instead
   std::vector<std::string> names;              ///< the imagers' names; empty = A, B, ...
   std::string pixelSpacing;                    ///< "MM" or "COLUMN_MM,ROW_MM"

@@ -3,8 +3,8 @@
 
 #include "xpError.h"
 #include "xpProjectionMatrix.h"
-#include "xpRTImage.h"
 #include "xpStereoGeometry.h"
+#include "xpXRayGeometryTags.h"
 
 #include <cmath>
 #include <cstdio>
@@ -28,24 +28,27 @@ Eigen::Vector2d ParseSpacing(const std::string& text)
   return spacing;
 }
 
-/** The imagers of --dicom: each RT Image's own tags, named by --names or its RT Image Label. */
-StereoGeometry GeometryFromRTImages(const GeometryOptions& options)
+/** The imagers of --dicom: each X-ray's own tags (RT Image, DX, CR, XA), named by --names, an
+ *  RT Image's label or the file. */
+StereoGeometry GeometryFromDICOM(const GeometryOptions& options)
 {
   if (!options.projectionMatrices.empty() || !options.intrinsics.empty() || !options.extrinsics.empty())
-    throw InputError("--dicom", "give RT Images or projection matrices or pinhole calibrations, not several");
+    throw InputError("--dicom", "give DICOM X-rays or projection matrices or pinhole calibrations, not several");
   if (!options.pixelSpacing.empty() || !options.size.empty())
-    throw InputError("--dicom", "RT Images carry their own pixel spacing and size: leave out --pixel-spacing and --size");
+    throw InputError("--dicom", "DICOM X-rays carry their own pixel spacing and size: leave out --pixel-spacing and --size");
   if (!options.names.empty() && options.names.size() != options.dicom.size())
-    throw InputError("--names", "give one name per RT Image (" + std::to_string(options.dicom.size()) + "), got " +
+    throw InputError("--names", "give one name per DICOM X-ray (" + std::to_string(options.dicom.size()) + "), got " +
         std::to_string(options.names.size()));
   StereoGeometry geometry;
-  geometry.name = "from RT Images";
+  geometry.name = "from DICOM X-ray tags";
   geometry.isocenter = ParsePoint(options.isocenter, "--isocenter");
   for (size_t v = 0; v < options.dicom.size(); ++v)
   {
-    geometry.views.push_back(ReadRTImageView(options.dicom[v], geometry.isocenter));
+    geometry.views.push_back(ReadXRayViewFromTags(options.dicom[v], geometry.isocenter, options.patientPosition));
     if (!options.names.empty())
       geometry.views.back().name = options.names[v];
+    else if (geometry.views.back().name == options.dicom[v]) // a DX has no label: A, B, ...
+      geometry.views.back().name = std::string(1, static_cast<char>('A' + v));
   }
   return geometry;
 }
@@ -54,7 +57,7 @@ StereoGeometry GeometryFromMatrices(const GeometryOptions& options)
 {
   const bool pinhole = !options.intrinsics.empty() || !options.extrinsics.empty();
   if (pinhole == !options.projectionMatrices.empty())
-    throw InputError("--projection-matrix", "give RT Images (--dicom), projection matrices or --intrinsics with --extrinsics, one per imager");
+    throw InputError("--projection-matrix", "give DICOM X-rays (--dicom), projection matrices or --intrinsics with --extrinsics, one per imager");
   if (pinhole && options.intrinsics.size() != options.extrinsics.size())
     throw InputError("--extrinsics", "give one [R | t] file per --intrinsics file (" + std::to_string(options.intrinsics.size()) +
         "), got " + std::to_string(options.extrinsics.size()));
@@ -84,31 +87,32 @@ double DegreesApart(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
   return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI;
 }
 
-/** --check: each RT Image against the geometry file's imager of the same order. */
+/** --check: each DICOM X-ray against the geometry file's imager of the same order. */
 int CheckAgainstGeometry(const GeometryOptions& options)
 {
   if (options.dicom.empty())
-    throw InputError("--check", "compares RT Images (--dicom) with the geometry file");
+    throw InputError("--check", "compares DICOM X-rays (--dicom) with the geometry file");
   const StereoGeometry geometry = ReadStereoGeometry(options.check);
   if (options.dicom.size() != geometry.views.size())
-    throw InputError("--dicom", "give one RT Image per imager of " + options.check + " (" + std::to_string(geometry.views.size()) +
+    throw InputError("--dicom", "give one DICOM X-ray per imager of " + options.check + " (" + std::to_string(geometry.views.size()) +
         "), in order; got " + std::to_string(options.dicom.size()));
   bool agree = true;
   for (size_t v = 0; v < geometry.views.size(); ++v)
   {
     const XRayView& expected = geometry.views[v];
-    const XRayView found = ReadRTImageView(options.dicom[v], geometry.isocenter);
+    const XRayView found = ReadXRayViewFromTags(options.dicom[v], geometry.isocenter, options.patientPosition);
     std::printf("imager %s, %s: source %.3f mm, panel centre %.3f mm from the file's; rows %.4f deg, columns %.4f deg apart\n",
       expected.name.c_str(), options.dicom[v].c_str(), (found.source - expected.source).norm(),
       (found.detectorCenter - expected.detectorCenter).norm(), DegreesApart(found.rowDirection, expected.rowDirection),
       DegreesApart(found.columnDirection, expected.columnDirection));
-    for (const std::string& difference : RTImageDisagreements(options.dicom[v], expected, geometry.isocenter))
+    for (const std::string& difference :
+      XRayTagDisagreements(options.dicom[v], expected, geometry.isocenter, options.patientPosition))
     {
       std::printf("  %s\n", difference.c_str());
       agree = false;
     }
   }
-  std::printf("%s\n", agree ? "the RT Images agree with the geometry file (0.5 mm, 0.1 deg)" : "the RT Images DISAGREE with the geometry file");
+  std::printf("%s\n", agree ? "the X-rays' tags agree with the geometry file (0.5 mm, 0.1 deg)" : "the X-rays' tags DISAGREE with the geometry file");
   return agree ? ExitOk : ExitBadInput;
 }
 
@@ -120,7 +124,7 @@ int RunGeometry(const GeometryOptions& options)
     return CheckAgainstGeometry(options);
   if (options.output.empty())
     throw InputError("--out", "the geometry file to write is missing");
-  const StereoGeometry geometry = options.dicom.empty() ? GeometryFromMatrices(options) : GeometryFromRTImages(options);
+  const StereoGeometry geometry = options.dicom.empty() ? GeometryFromMatrices(options) : GeometryFromDICOM(options);
   // The views must make a geometry xpose can use (central rays on the panels, names distinct).
   ValidateGeometry(geometry, options.output);
   WriteStereoGeometry(geometry, options.output);

@@ -47,9 +47,12 @@ CLI::App* AddPhantomCommand(CLI::App& app, xp::PhantomOptions& options)
 CLI::App* AddGeometryCommand(CLI::App& app, xp::GeometryOptions& options)
 {
   CLI::App* geometryCommand = app.add_subcommand("geometry",
-    "Write a geometry file from the imagers' RT Images, 3x4 projection matrices or pinhole calibrations");
+    "Write a geometry file from the imagers' DICOM X-rays, 3x4 projection matrices or pinhole calibrations");
   geometryCommand->add_option("--dicom", options.dicom,
-    "One DICOM RT Image per imager: the geometry from its tags (gantry angle and pitch, SAD, SID, receptor)");
+    "One DICOM X-ray per imager, the geometry from its tags: RT Image (gantry angle and pitch, SAD, SID, receptor) "
+    "or DX/CR/XA (positioner angles, source distances, imager pixel spacing, patient orientation)");
+  geometryCommand->add_option("--patient-position", options.patientPosition,
+    "How the patient lay (HFS, HFP, FFS, FFP) for DX/CR/XA files without Patient Position (0018,5100)");
   geometryCommand->add_option("--projection-matrix", options.projectionMatrices,
     "One text file per imager: 3 rows of 4 numbers, Room mm to (col, row) pixel-centre indices, row 0 at the top");
   geometryCommand->add_option("--intrinsics", options.intrinsics, "Or pinhole calibrations: K per imager (3 rows of 3, pixels)");
@@ -60,7 +63,7 @@ CLI::App* AddGeometryCommand(CLI::App& app, xp::GeometryOptions& options)
   geometryCommand->add_option("--size", options.size, "Detector COLSxROWS (with matrices)");
   geometryCommand->add_option("--isocenter", options.isocenter, "Room isocentre x,y,z (mm)")->capture_default_str();
   geometryCommand->add_option("--check", options.check,
-    "With --dicom: report how far the RT Images' tags are from this geometry file (exit 2 beyond 0.5 mm / 0.1 deg)");
+    "With --dicom: report how far the X-rays' tags are from this geometry file (exit 2 beyond 0.5 mm / 0.1 deg)");
   geometryCommand->add_option("--out", options.output, "The geometry JSON to write");
   return geometryCommand;
 }

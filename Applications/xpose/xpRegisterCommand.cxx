@@ -15,6 +15,7 @@
 #include "xpRegistrationRecord.h"
 #include "xpOrthanc.h"
 #include "xpRTImage.h"
+#include "xpXRayGeometryTags.h"
 #include "xpSpatialRegistration.h"
 
 #include <vtkCallbackCommand.h>
@@ -279,13 +280,15 @@ void WriteDICOMResult(const CTSeriesInfo& ct, const StereoRegistrationResult& re
   std::printf("DICOM: %s in %s\n", written.c_str(), directory.c_str());
 }
 
-/** Warns where an X-ray's own geometry tags (an RT Image's) disagree with --geometry, naming
- *  the tag and both values: the geometry file stays the source of truth, but a mismatch usually
- *  means the wrong file or a moved imager. */
-void WarnOfGeometryTags(const RegisterOptions& options, const StereoGeometry& geometry)
+/** Warns where an X-ray's own geometry tags (an RT Image's, a DX's) disagree with --geometry,
+ *  naming the tag and both values: the geometry file stays the source of truth, but a mismatch
+ *  usually means the wrong file or a moved imager. A DX without Patient Position lay as the CT. */
+void WarnOfGeometryTags(const RegisterOptions& options, const DRRSetup& setup)
 {
+  const StereoGeometry& geometry = setup.geometry;
   for (size_t v = 0; v < options.xrays.size() && v < geometry.views.size(); ++v)
-    for (const std::string& difference : RTImageDisagreements(options.xrays[v], geometry.views[v], geometry.isocenter))
+    for (const std::string& difference :
+      XRayTagDisagreements(options.xrays[v], geometry.views[v], geometry.isocenter, ToString(setup.patient.position)))
       std::fprintf(stderr, "xpose register: warning: %s: %s\n", options.xrays[v].c_str(), difference.c_str());
 }
 
@@ -372,7 +375,7 @@ int RunRegister(const RegisterOptions& options)
   const std::optional<CTSeriesInfo> dicomCT = DICOMOutputCT(options);
   const RegistrationInputs inputs = LoadRegistrationInputs(options);
   const DRRSetup& setup = inputs.setup;
-  WarnOfGeometryTags(options, setup.geometry);
+  WarnOfGeometryTags(options, setup);
   const double readSeconds = Since(start);
   std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), inputs.views.size(),
     inputs.views[0].view.Columns(), inputs.views[0].view.Rows(), readSeconds);

@@ -8,7 +8,11 @@
 #include <gdcmReader.h>
 #include <gdcmSequenceOfItems.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <sstream>
 #include <cstring>
 #include <ctime>
 
@@ -165,6 +169,81 @@ void PutPixelData(gdcm::DataSet& ds, gdcm::VR vr, const void* pixels, size_t byt
   de.SetVR(vr);
   de.SetByteValue(data.data(), static_cast<uint32_t>(data.size()));
   ds.Replace(de);
+}
+
+std::string TagText(uint16_t group, uint16_t element)
+{
+  char tag[16];
+  std::snprintf(tag, sizeof(tag), "(%04X,%04X)", group, element);
+  return tag;
+}
+
+std::vector<double> ReadNumbers(const gdcm::DataSet& ds, uint16_t group, uint16_t element, size_t count,
+  const std::string& name, const std::string& path, bool required)
+{
+  const std::string text = Value(ds, gdcm::Tag(group, element));
+  const std::string tag = TagText(group, element);
+  if (text.empty())
+  {
+    if (required)
+      throw InputError(path, name + " " + tag + " missing: the imager's geometry cannot be rebuilt");
+    return {};
+  }
+  std::vector<double> values;
+  std::stringstream words(text);
+  std::string word;
+  while (std::getline(words, word, '\\'))
+  {
+    char* end = nullptr;
+    const double value = std::strtod(word.c_str(), &end);
+    while (end && *end == ' ')
+      ++end;
+    if (end == word.c_str() || *end != '\0' || !std::isfinite(value))
+      throw InputError(path, name + " " + tag + ": '" + word + "' is not a finite number");
+    values.push_back(value);
+  }
+  if (values.size() != count)
+    throw InputError(path, name + " " + tag + ": expected " + std::to_string(count) + " values, found " + std::to_string(values.size()));
+  return values;
+}
+
+void ReadRowsAndColumns(const gdcm::DataSet& ds, const std::string& path, int& rows, int& columns)
+{
+  const gdcm::Tag rowsTag(0x0028, 0x0010), columnsTag(0x0028, 0x0011);
+  uint16_t values[2] = { 0, 0 };
+  for (int i = 0; i < 2; ++i)
+  {
+    const gdcm::Tag& tag = i == 0 ? rowsTag : columnsTag;
+    if (!ds.FindDataElement(tag) || !ds.GetDataElement(tag).GetByteValue() || ds.GetDataElement(tag).GetByteValue()->GetLength() != 2)
+      throw InputError(path, i == 0 ? "Rows (0028,0010) missing" : "Columns (0028,0011) missing");
+    std::memcpy(&values[i], ds.GetDataElement(tag).GetByteValue()->GetPointer(), 2);
+  }
+  if (values[0] < 1 || values[1] < 1)
+    throw InputError(path, "Rows (0028,0010) / Columns (0028,0011) must be at least 1");
+  rows = values[0];
+  columns = values[1];
+}
+
+void TagComparison::Compare(uint16_t group, uint16_t element, const std::string& name, const std::vector<double>& wanted,
+  double tolerance, const std::string& unit, bool angle)
+{
+  const std::vector<double> found = ReadNumbers(this->DataSet, group, element, wanted.size(), name, this->Path, false);
+  if (found.empty())
+    return;
+  bool apart = false;
+  std::string foundText, wantedText;
+  for (size_t i = 0; i < wanted.size(); ++i)
+  {
+    double difference = std::abs(found[i] - wanted[i]);
+    if (angle)
+      difference = std::min(difference, 360.0 - std::fmod(difference, 360.0));
+    apart = apart || difference > tolerance;
+    foundText += (i ? "\\" : "") + DS(found[i]);
+    wantedText += (i ? "\\" : "") + DS(wanted[i]);
+  }
+  if (apart)
+    this->Lines.push_back(name + " " + TagText(group, element) + " = " + foundText + " " + unit +
+      ", the geometry file's imager " + this->Imager + " has " + wantedText + " " + unit);
 }
 
 bool GetFL(const gdcm::DataSet& ds, const gdcm::Tag& tag, float& value)

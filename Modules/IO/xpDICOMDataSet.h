@@ -44,6 +44,42 @@ void CopyPatientAndStudy(const std::string& ctFile, gdcm::DataSet& ds);
 std::string BeginInstance(gdcm::DataSet& ds, const CTSeriesInfo& ct, const std::string& sopClassUID,
   const std::string& modality, const std::string& seriesDescription, const std::string& seriesUID);
 
+/** "(0018,1110)" */
+std::string TagText(uint16_t group, uint16_t element);
+/**
+ * The numbers of a DS/IS element: exactly `count` finite ones; none when the element is absent
+ * and not `required`. Throws xp::InputError naming `path`, `name` and the tag otherwise.
+ */
+std::vector<double> ReadNumbers(const gdcm::DataSet& ds, uint16_t group, uint16_t element, size_t count,
+  const std::string& name, const std::string& path, bool required);
+/** Rows (0028,0010) and Columns (0028,0011), at least 1; throws xp::InputError naming `path`. */
+void ReadRowsAndColumns(const gdcm::DataSet& ds, const std::string& path, int& rows, int& columns);
+
+/** Compares geometry tags of a file with the values a geometry file's imager implies. */
+class TagComparison
+{
+public:
+  TagComparison(const gdcm::DataSet& ds, const std::string& path, const std::string& imager)
+    : DataSet(ds)
+    , Path(path)
+    , Imager(imager)
+  {
+  }
+  /** Adds a line when the element is present and one of its values is beyond `tolerance` of
+   *  `wanted` (angles: around the circle). */
+  void Compare(uint16_t group, uint16_t element, const std::string& name, const std::vector<double>& wanted,
+    double tolerance, const std::string& unit, bool angle);
+  /** Adds a line as it is. */
+  void Add(const std::string& line) { this->Lines.push_back(line); }
+  const std::vector<std::string>& Differences() const { return this->Lines; }
+
+private:
+  const gdcm::DataSet& DataSet;
+  std::string Path;
+  std::string Imager;
+  std::vector<std::string> Lines;
+};
+
 /** Content / instance creation date and time (DA, TM) of now, local time. */
 void PutNow(gdcm::DataSet& ds);
 /** A binary unsigned short (US) element, little-endian as the transfer syntax. */

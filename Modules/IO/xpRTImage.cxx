@@ -22,6 +22,7 @@ namespace xp
 using dicom::DS;
 using dicom::Put;
 using dicom::PutSequence;
+using dicom::ReadNumbers;
 using dicom::Value;
 
 namespace
@@ -35,37 +36,6 @@ std::string Numbers(std::initializer_list<double> values)
   for (double v : values)
     text += (text.empty() ? "" : "\\") + DS(v);
   return text;
-}
-
-/** The numbers of a DS/IS element: exactly `count` finite ones, or xp::InputError naming the tag. */
-std::vector<double> Read(const gdcm::DataSet& ds, uint16_t group, uint16_t element, size_t count, const std::string& name,
-  const std::string& path, bool required)
-{
-  const std::string text = Value(ds, gdcm::Tag(group, element));
-  char tag[16];
-  std::snprintf(tag, sizeof(tag), "(%04X,%04X)", group, element);
-  if (text.empty())
-  {
-    if (required)
-      throw InputError(path, name + " " + tag + " missing: the imager's geometry cannot be rebuilt");
-    return {};
-  }
-  std::vector<double> values;
-  std::stringstream words(text);
-  std::string word;
-  while (std::getline(words, word, '\\'))
-  {
-    char* end = nullptr;
-    const double value = std::strtod(word.c_str(), &end);
-    while (end && *end == ' ')
-      ++end;
-    if (end == word.c_str() || *end != '\0' || !std::isfinite(value))
-      throw InputError(path, name + " " + tag + ": '" + word + "' is not a finite number");
-    values.push_back(value);
-  }
-  if (values.size() != count)
-    throw InputError(path, name + " " + tag + ": expected " + std::to_string(count) + " values, found " + std::to_string(values.size()));
-  return values;
 }
 
 /** The Image Pixel module's numbers: unsigned samples, `stored` of `allocated` bits each. */
@@ -164,15 +134,15 @@ XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIso
   if (plane != "NORMAL")
     throw InputError(path, "RT Image Plane (3002,000C) = '" + plane + "': only NORMAL panels are supported");
   RTImageGeometry g;
-  g.sad = Read(ds, 0x3002, 0x0022, 1, "Radiation Machine SAD", path, true)[0];
-  g.sid = Read(ds, 0x3002, 0x0026, 1, "RT Image SID", path, true)[0];
+  g.sad = ReadNumbers(ds, 0x3002, 0x0022, 1, "Radiation Machine SAD", path, true)[0];
+  g.sid = ReadNumbers(ds, 0x3002, 0x0026, 1, "RT Image SID", path, true)[0];
   if (!(g.sad > 0.0) || !(g.sid > g.sad))
     throw InputError(path, "RT Image SID (3002,0026) must exceed Radiation Machine SAD (3002,0022), both positive");
-  const std::vector<double> spacing = Read(ds, 0x3002, 0x0011, 2, "Image Plane Pixel Spacing", path, true);
+  const std::vector<double> spacing = ReadNumbers(ds, 0x3002, 0x0011, 2, "Image Plane Pixel Spacing", path, true);
   if (!(spacing[0] > 0.0) || !(spacing[1] > 0.0))
     throw InputError(path, "Image Plane Pixel Spacing (3002,0011) must be positive");
   g.pixelSpacing = Eigen::Vector2d(spacing[0], spacing[1]);
-  g.gantryAngle = Read(ds, 0x300a, 0x011e, 1, "Gantry Angle", path, true)[0];
+  g.gantryAngle = ReadNumbers(ds, 0x300a, 0x011e, 1, "Gantry Angle", path, true)[0];
   float pitch = 0.0f;
   if (dicom::GetFL(ds, gdcm::Tag(0x300a, 0x014a), pitch))
   {
@@ -180,28 +150,17 @@ XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIso
       throw InputError(path, "Gantry Pitch Angle (300A,014A) must be finite and within +-90 degrees");
     g.gantryPitch = pitch;
   }
-  const std::vector<double> angle = Read(ds, 0x3002, 0x000e, 1, "X-Ray Image Receptor Angle", path, false);
+  const std::vector<double> angle = ReadNumbers(ds, 0x3002, 0x000e, 1, "X-Ray Image Receptor Angle", path, false);
   g.receptorAngle = angle.empty() ? 0.0 : angle[0];
-  const gdcm::Tag rowsTag(0x0028, 0x0010), columnsTag(0x0028, 0x0011);
-  for (const gdcm::Tag& tag : { rowsTag, columnsTag })
-  {
-    if (!ds.FindDataElement(tag) || !ds.GetDataElement(tag).GetByteValue() || ds.GetDataElement(tag).GetByteValue()->GetLength() != 2)
-      throw InputError(path, tag == rowsTag ? "Rows (0028,0010) missing" : "Columns (0028,0011) missing");
-  }
-  uint16_t rows = 0, columns = 0;
-  std::memcpy(&rows, ds.GetDataElement(rowsTag).GetByteValue()->GetPointer(), 2);
-  std::memcpy(&columns, ds.GetDataElement(columnsTag).GetByteValue()->GetPointer(), 2);
-  if (rows < 1 || columns < 1)
-    throw InputError(path, "Rows (0028,0010) / Columns (0028,0011) must be at least 1");
-  g.rows = rows;
-  g.columns = columns;
-  const std::vector<double> translation = Read(ds, 0x3002, 0x000d, 3, "X-Ray Image Receptor Translation", path, false);
+  dicom::ReadRowsAndColumns(ds, path, g.rows, g.columns);
+  const int rows = g.rows, columns = g.columns;
+  const std::vector<double> translation = ReadNumbers(ds, 0x3002, 0x000d, 3, "X-Ray Image Receptor Translation", path, false);
   g.receptorTranslation = translation.empty() ? Eigen::Vector3d(0.0, 0.0, g.sad - g.sid)
                                               : Eigen::Vector3d(translation[0], translation[1], translation[2]);
   if (std::abs(g.receptorTranslation.z() - (g.sad - g.sid)) > 0.1)
     throw InputError(path, "X-Ray Image Receptor Translation (3002,000D) z = " + DS(g.receptorTranslation.z()) +
         " mm contradicts Radiation Machine SAD - RT Image SID = " + DS(g.sad - g.sid) + " mm");
-  const std::vector<double> position = Read(ds, 0x3002, 0x0012, 2, "RT Image Position", path, false);
+  const std::vector<double> position = ReadNumbers(ds, 0x3002, 0x0012, 2, "RT Image Position", path, false);
   g.imagePosition = position.empty()
     ? Eigen::Vector2d(-0.5 * (columns - 1) * g.pixelSpacing[1], 0.5 * (rows - 1) * g.pixelSpacing[0])
     : Eigen::Vector2d(position[0], position[1]);
@@ -260,46 +219,23 @@ std::vector<std::string> RTImageDisagreements(
   {
     return { std::string("cannot be compared: ") + e.what() };
   }
-  std::vector<std::string> differences;
-  const auto compare = [&](uint16_t group, uint16_t element, const std::string& name, const std::vector<double>& wanted,
-                         double tolerance, const std::string& unit, bool angle)
-  {
-    const std::vector<double> found = Read(ds, group, element, wanted.size(), name, path, false);
-    if (found.empty())
-      return;
-    bool apart = false;
-    std::string foundText, wantedText;
-    for (size_t i = 0; i < wanted.size(); ++i)
-    {
-      double difference = std::abs(found[i] - wanted[i]);
-      if (angle)
-        difference = std::min(difference, 360.0 - std::fmod(difference, 360.0));
-      apart = apart || difference > tolerance;
-      foundText += (i ? "\\" : "") + DS(found[i]);
-      wantedText += (i ? "\\" : "") + DS(wanted[i]);
-    }
-    char tag[16];
-    std::snprintf(tag, sizeof(tag), "(%04X,%04X)", group, element);
-    if (apart)
-      differences.push_back(name + " " + tag + " = " + foundText + " " + unit + ", the geometry file's imager " + view.name +
-        " has " + wantedText + " " + unit);
-  };
-  compare(0x300a, 0x011e, "Gantry Angle", { expected.gantryAngle }, 0.1, "deg", true);
+  dicom::TagComparison tags(ds, path, view.name);
+  tags.Compare(0x300a, 0x011e, "Gantry Angle", { expected.gantryAngle }, 0.1, "deg", true);
   float pitch = 0.0f;
   if (dicom::GetFL(ds, gdcm::Tag(0x300a, 0x014a), pitch))
   {
     if (!(std::abs(pitch - expected.gantryPitch) <= 0.1))
-      differences.push_back("Gantry Pitch Angle (300A,014A) = " + DS(pitch) + " deg, the geometry file's imager " + view.name +
-        " has " + DS(expected.gantryPitch) + " deg");
+      tags.Add("Gantry Pitch Angle (300A,014A) = " + DS(pitch) + " deg, the geometry file's imager " + view.name + " has " +
+        DS(expected.gantryPitch) + " deg");
   }
-  compare(0x3002, 0x000e, "X-Ray Image Receptor Angle", { expected.receptorAngle }, 0.1, "deg", true);
-  compare(0x3002, 0x0022, "Radiation Machine SAD", { expected.sad }, 0.5, "mm", false);
-  compare(0x3002, 0x0026, "RT Image SID", { expected.sid }, 0.5, "mm", false);
+  tags.Compare(0x3002, 0x000e, "X-Ray Image Receptor Angle", { expected.receptorAngle }, 0.1, "deg", true);
+  tags.Compare(0x3002, 0x0022, "Radiation Machine SAD", { expected.sad }, 0.5, "mm", false);
+  tags.Compare(0x3002, 0x0026, "RT Image SID", { expected.sid }, 0.5, "mm", false);
   const Eigen::Vector3d& t = expected.receptorTranslation;
-  compare(0x3002, 0x000d, "X-Ray Image Receptor Translation", { t.x(), t.y(), t.z() }, 0.5, "mm", false);
-  compare(0x3002, 0x0012, "RT Image Position", { expected.imagePosition.x(), expected.imagePosition.y() }, 0.5, "mm", false);
-  compare(0x3002, 0x0011, "Image Plane Pixel Spacing", { expected.pixelSpacing[0], expected.pixelSpacing[1] }, 1e-3, "mm", false);
-  return differences;
+  tags.Compare(0x3002, 0x000d, "X-Ray Image Receptor Translation", { t.x(), t.y(), t.z() }, 0.5, "mm", false);
+  tags.Compare(0x3002, 0x0012, "RT Image Position", { expected.imagePosition.x(), expected.imagePosition.y() }, 0.5, "mm", false);
+  tags.Compare(0x3002, 0x0011, "Image Plane Pixel Spacing", { expected.pixelSpacing[0], expected.pixelSpacing[1] }, 1e-3, "mm", false);
+  return tags.Differences();
 }
 
 } // namespace xp

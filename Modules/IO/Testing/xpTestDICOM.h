@@ -5,14 +5,24 @@
 #include <gdcmImageWriter.h>
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <string>
 #include <vector>
 
 namespace xp::testing
 {
 
-/** A 40x30 DX image: value = 100 * column + row (14 bits stored), row 0 first. */
-inline void WriteDX(const std::string& path, const char* modality, bool monochrome1)
+/** A text element of a test file. */
+struct TestElement
+{
+  uint16_t group, element;
+  gdcm::VR vr;
+  std::string value;
+};
+
+/** A 40x30 DX image: value = 100 * column + row (14 bits stored), row 0 first, with `extra`
+ *  elements. */
+inline void WriteDX(const std::string& path, const char* modality, bool monochrome1, const std::vector<TestElement>& extra = {})
 {
   std::vector<uint16_t> pixels(40 * 30);
   for (int r = 0; r < 30; ++r)
@@ -26,6 +36,14 @@ inline void WriteDX(const std::string& path, const char* modality, bool monochro
   image.SetPixelFormat(gdcm::PixelFormat(1, 16, 14, 13, 0));
   image.SetPhotometricInterpretation(
     monochrome1 ? gdcm::PhotometricInterpretation::MONOCHROME1 : gdcm::PhotometricInterpretation::MONOCHROME2);
+  for (const TestElement& e : extra) // ImageWriter writes Imager Pixel Spacing from the image's spacing
+    if (e.group == 0x0018 && e.element == 0x1164)
+    {
+      double between[2] = { 1.0, 1.0 };
+      std::sscanf(e.value.c_str(), "%lf\\%lf", &between[0], &between[1]);
+      image.SetSpacing(0, between[1]); // along a row: between columns
+      image.SetSpacing(1, between[0]);
+    }
   gdcm::DataElement data(gdcm::Tag(0x7fe0, 0x0010));
   data.SetByteValue(reinterpret_cast<const char*>(pixels.data()), static_cast<uint32_t>(pixels.size() * 2));
   image.SetDataElement(data);
@@ -37,6 +55,16 @@ inline void WriteDX(const std::string& path, const char* modality, bool monochro
     value += ' ';
   mod.SetByteValue(value.data(), static_cast<uint32_t>(value.size()));
   ds.Replace(mod);
+  for (const TestElement& e : extra)
+  {
+    gdcm::DataElement de(gdcm::Tag(e.group, e.element));
+    de.SetVR(e.vr);
+    std::string text = e.value;
+    if (text.size() % 2)
+      text += e.vr == gdcm::VR::UI ? '\0' : ' ';
+    de.SetByteValue(text.data(), static_cast<uint32_t>(text.size()));
+    ds.Replace(de);
+  }
   writer.SetFileName(path.c_str());
   ASSERT_TRUE(writer.Write());
 }
