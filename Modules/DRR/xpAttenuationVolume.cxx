@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstdint>
+#include <limits>
+#include <cmath>
 
 namespace xp
 {
@@ -23,20 +25,79 @@ std::shared_ptr<uint16_t> AllocateVoxels(size_t count)
   return std::shared_ptr<uint16_t>(static_cast<uint16_t*>(AllocateHugePages(count * sizeof(uint16_t))), &FreeHugePages);
 }
 
+/** Where a CT's non-air voxels are, and the largest HU among them. */
+struct NonAirBox
+{
+  Eigen::Vector3i low = Eigen::Vector3i::Constant(std::numeric_limits<int>::max());
+  Eigen::Vector3i high = Eigen::Vector3i::Constant(-1); // inclusive
+  float highest = -1000.0f;
+
+  explicit NonAirBox(float lowestHighest)
+    : highest(lowestHighest)
+  {
+  }
+  bool Empty() const { return (this->high.array() < this->low.array()).any(); }
+  void Add(const NonAirBox& other)
+  {
+    this->low = this->low.cwiseMin(other.low);
+    this->high = this->high.cwiseMax(other.high);
+    this->highest = std::max(this->highest, other.highest);
+  }
+};
+
+/** One pass over the CT, slices in parallel; within a row only the stretch between its first and
+ *  last non-air voxel is searched for the highest value. */
+template <typename HU>
+NonAirBox FindNonAirBox(const HU* hounsfield, const Eigen::Vector3i& dims, float air)
+{
+  // Non-air: at or above the threshold and of positive mu (above -1000 HU).
+  const float lowest = std::max(air, std::nextafter(-1000.0f, 0.0f));
+  std::vector<NonAirBox> slices(dims[2], NonAirBox(air));
+  vtkSMPTools::For(0, dims[2],
+    [&](int k0, int k1)
+    {
+      for (int k = k0; k < k1; ++k)
+      {
+        NonAirBox& box = slices[k];
+        for (int j = 0; j < dims[1]; ++j)
+        {
+          const HU* row = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
+          int first = 0, last = dims[0] - 1;
+          while (first <= last && static_cast<float>(row[first]) < lowest)
+            ++first;
+          if (first > last)
+            continue;
+          while (static_cast<float>(row[last]) < lowest)
+            --last;
+          float highest = box.highest;
+          for (int i = first; i <= last; ++i)
+            highest = std::max(highest, static_cast<float>(row[i]));
+          box.highest = highest;
+          box.low = box.low.cwiseMin(Eigen::Vector3i(first, j, k));
+          box.high = box.high.cwiseMax(Eigen::Vector3i(last, j, k));
+        }
+      }
+    });
+  NonAirBox all(air);
+  for (const NonAirBox& slice : slices)
+    all.Add(slice);
+  return all;
+}
+
 } // namespace
 
 template <typename HU>
 AttenuationVolume::AttenuationVolume(
   const HU* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater, double airThreshold)
   : Dims(dims)
-  , Padded(dims + Eigen::Vector3i::Constant(2))
+  , CTIndexToCT(indexToCT)
   , Water(muWater)
 {
   if (dims.minCoeff() < 1)
   {
     throw Error("attenuation volume: empty CT");
   }
-  if (this->Padded.cast<double>().prod() >= 2147483647.0)
+  if ((dims + Eigen::Vector3i::Constant(2)).cast<double>().prod() >= 2147483647.0)
   {
     throw Error("attenuation volume: more than 2^31 voxels are not supported");
   }
@@ -44,39 +105,46 @@ AttenuationVolume::AttenuationVolume(
   {
     throw InputError("mu_water", "must be positive");
   }
-  this->PaddedToCT = indexToCT * Eigen::Translation3d(-1.0, -1.0, -1.0);
-  this->MinSpacing = indexToCT.linear().colwise().norm().minCoeff();
-  this->MaxSpacing = indexToCT.linear().colwise().norm().maxCoeff();
+  const float air = static_cast<float>(airThreshold);
+  NonAirBox box = FindNonAirBox(hounsfield, dims, air);
+  if (box.Empty())
+  {
+    box.low = box.high = Eigen::Vector3i::Zero(); // one voxel of air keeps the layout valid
+  }
+  this->Origin = box.low;
+  this->Store(hounsfield, dims, box.low, box.high - box.low + Eigen::Vector3i::Ones(), box.highest, air);
+}
+
+template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
+  const float*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
+template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
+  const int16_t*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
+
+template <typename HU>
+void AttenuationVolume::Store(const HU* hounsfield, const Eigen::Vector3i& arrayDims, const Eigen::Vector3i& low,
+  const Eigen::Vector3i& size, float highest, float air)
+{
+  this->Padded = size + Eigen::Vector3i::Constant(2);
+  this->PaddedToCT = this->CTIndexToCT * Eigen::Translation3d((this->Origin - Eigen::Vector3i::Ones()).cast<double>());
+  this->MinSpacing = this->CTIndexToCT.linear().colwise().norm().minCoeff();
+  this->MaxSpacing = this->CTIndexToCT.linear().colwise().norm().maxCoeff();
   const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
   this->Mu = AllocateVoxels(nxy * this->Padded[2] + 2);
   // mu = muWater (1 + HU/1000) = scale (HU + 1000): exactly 0 for air, so empty blocks are
   // found; voxels below airThreshold (noise in the air around the patient) count as air.
-  const float air = static_cast<float>(airThreshold);
-  const size_t voxelCount = static_cast<size_t>(dims[0]) * dims[1] * dims[2];
-  vtkSMPThreadLocal<float> highestOfThread(air);
-  vtkSMPTools::For(0, static_cast<vtkIdType>(voxelCount), vtkIdType(1) << 20,
-    [&](vtkIdType begin, vtkIdType end)
-    {
-      float& highest = highestOfThread.Local();
-      for (vtkIdType i = begin; i < end; ++i)
-        highest = std::max(highest, static_cast<float>(hounsfield[i]));
-    });
-  float highest = air;
-  for (const float h : highestOfThread)
-    highest = std::max(highest, h);
-  const double highestMu = muWater / 1000.0 * std::max(0.0, highest + 1000.0);
+  const double highestMu = this->Water / 1000.0 * std::max(0.0, highest + 1000.0);
   this->Step = highestMu > 0.0 ? highestMu / 65535.0 : 1.0;
-  const float scale = static_cast<float>(muWater / 1000.0 / this->Step);
-  vtkSMPTools::For(0, dims[2],
+  const float scale = static_cast<float>(this->Water / 1000.0 / this->Step);
+  vtkSMPTools::For(0, size[2],
     [&](int k0, int k1)
     {
       for (int k = k0; k < k1; ++k)
       {
-        for (int j = 0; j < dims[1]; ++j)
+        for (int j = 0; j < size[1]; ++j)
         {
-          const HU* in = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
+          const HU* in = hounsfield + (static_cast<size_t>(low[2] + k) * arrayDims[1] + low[1] + j) * arrayDims[0] + low[0];
           uint16_t* out = this->Mu.get() + (k + 1) * nxy + (j + 1) * nx + 1;
-          for (int i = 0; i < dims[0]; ++i)
+          for (int i = 0; i < size[0]; ++i)
           {
             const float hu = static_cast<float>(in[i]);
             const float steps = hu < air ? 0.0f : std::min(65535.0f, scale * std::max(0.0f, hu + 1000.0f));
@@ -130,42 +198,59 @@ AttenuationVolume::AttenuationVolume(
     });
 }
 
-template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
-  const float*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
-template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
-  const int16_t*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
-
 AttenuationVolume AttenuationVolume::Halved() const
 {
-  const Eigen::Vector3i half = (this->Dims + Eigen::Vector3i::Ones()) / 2;
-  // Back to HU, which the constructor takes: mean mu = muWater (1 + HU / 1000).
-  std::vector<float> hounsfield(static_cast<size_t>(half.prod()));
-  vtkSMPTools::For(0, half[2],
+  // Half voxel i is centred where original voxels 2i and 2i + 1 meet; only the half voxels
+  // that overlap the stored box can hold attenuation.
+  AttenuationVolume half;
+  half.Dims = (this->Dims + Eigen::Vector3i::Ones()) / 2;
+  half.CTIndexToCT = this->CTIndexToCT * Eigen::Translation3d(0.5, 0.5, 0.5) * Eigen::Scaling(2.0);
+  half.Water = this->Water;
+  half.Origin = this->Origin / 2;
+  const Eigen::Vector3i size = (this->Origin + this->StoredDimensions() - Eigen::Vector3i::Ones()) / 2 - half.Origin +
+    Eigen::Vector3i::Ones();
+  // Back to HU, which Store takes: mean mu = muWater (1 + HU / 1000).
+  std::vector<float> hounsfield(static_cast<size_t>(size.prod()));
+  vtkSMPTools::For(0, size[2],
     [&](int k0, int k1)
     {
       for (int k = k0; k < k1; ++k)
-        for (int j = 0; j < half[1]; ++j)
-          for (int i = 0; i < half[0]; ++i)
+        for (int j = 0; j < size[1]; ++j)
+          for (int i = 0; i < size[0]; ++i)
           {
+            const Eigen::Vector3i first = 2 * (half.Origin + Eigen::Vector3i(i, j, k));
+            const Eigen::Vector3i last = (first + Eigen::Vector3i::Ones()).cwiseMin(this->Dims - Eigen::Vector3i::Ones());
             long sum = 0; // in steps of Quantum()
             int count = 0;
-            for (int z = 2 * k; z < std::min(2 * k + 2, this->Dims[2]); ++z)
-              for (int y = 2 * j; y < std::min(2 * j + 2, this->Dims[1]); ++y)
-                for (int x = 2 * i; x < std::min(2 * i + 2, this->Dims[0]); ++x, ++count)
-                  sum += this->Mu.get()[this->Offset(x, y, z)];
-            hounsfield[(static_cast<size_t>(k) * half[1] + j) * half[0] + i] =
+            for (int z = first[2]; z <= last[2]; ++z)
+              for (int y = first[1]; y <= last[1]; ++y)
+                for (int x = first[0]; x <= last[0]; ++x, ++count)
+                  sum += this->StepsAt(x, y, z);
+            hounsfield[(static_cast<size_t>(k) * size[1] + j) * size[0] + i] =
               static_cast<float>(1000.0 * (this->Step * sum / count / this->Water - 1.0));
           }
     });
-  // Half voxel i is centred where original voxels 2i and 2i + 1 meet.
-  const Eigen::Affine3d indexToCT = this->PaddedToCT * Eigen::Translation3d(1.5, 1.5, 1.5) * Eigen::Scaling(2.0);
+  float highest = -1000.0f;
+  for (const float h : hounsfield)
+    highest = std::max(highest, h);
   // Air stays air: a mean of 0 maps to -1000 HU, below every threshold; partial air is kept.
-  return AttenuationVolume(hounsfield.data(), half, indexToCT, this->Water, -1000.0 + 1e-3);
+  half.Store(hounsfield.data(), size, Eigen::Vector3i::Zero(), size, highest, -1000.0f + 1e-3f);
+  return half;
+}
+
+uint16_t AttenuationVolume::StepsAt(int i, int j, int k) const
+{
+  const Eigen::Vector3i stored = Eigen::Vector3i(i, j, k) - this->Origin;
+  if ((stored.array() < 0).any() || (stored.array() >= this->StoredDimensions().array()).any())
+  {
+    return 0;
+  }
+  return this->Mu.get()[this->Offset(stored[0], stored[1], stored[2])];
 }
 
 float AttenuationVolume::At(int i, int j, int k) const
 {
-  return static_cast<float>(this->Step * this->Mu.get()[this->Offset(i, j, k)]);
+  return static_cast<float>(this->Step * this->StepsAt(i, j, k));
 }
 
 double AttenuationVolume::OccupiedFraction() const

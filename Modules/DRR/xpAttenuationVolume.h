@@ -6,7 +6,9 @@
  * well below lung and fat but above the noise of air in real scans) are air, mu = 0. The voxels are
  * stored with one voxel of zeros around the volume, so trilinear sampling needs no bounds
  * checks, and an occupancy grid of 32^3-voxel blocks marks where any attenuation is, so rays skip
- * empty space. Build it once per CT and reuse it for every pose.
+ * empty space. Only the box that holds the CT's non-air voxels is stored (a pelvis CT's 512 x 512
+ * slices hold the body in about 460 x 400): less memory to fill, which on a fresh process costs as
+ * much as the filling. Build it once per CT and reuse it for every pose.
  *
  * mu is stored as 16-bit steps of Quantum() (the volume's largest mu / 65535): half the memory
  * of floats, so more of the CT stays in cache, and the two x-neighbours of a sample fit in one
@@ -57,9 +59,22 @@ public:
    */
   AttenuationVolume Halved() const;
 
+  /** The CT's grid: its voxel counts, and voxel index -> CT mm. */
   const Eigen::Vector3i& Dimensions() const { return this->Dims; }
+  const Eigen::Affine3d& IndexToCT() const { return this->CTIndexToCT; }
+  /** mu of CT voxel (i, j, k); 0 outside the CT and outside the stored box. */
+  float At(int i, int j, int k) const;
+
+  /** The stored box: CT voxels StoredOrigin() + [0, StoredDimensions()), every non-air voxel. */
+  const Eigen::Vector3i& StoredOrigin() const { return this->Origin; }
+  Eigen::Vector3i StoredDimensions() const { return this->Padded - Eigen::Vector3i::Constant(2); }
+  /** mu of stored voxel (i, j, k), each in [0, StoredDimensions()). */
+  float StoredAt(int i, int j, int k) const
+  {
+    return static_cast<float>(this->Step * this->Mu.get()[this->Offset(i, j, k)]);
+  }
   const Eigen::Vector3i& PaddedDimensions() const { return this->Padded; }
-  /** Padded voxel index (original index + 1) -> CT mm. */
+  /** Padded voxel index (stored index + 1) -> CT mm. */
   const Eigen::Affine3d& PaddedIndexToCT() const { return this->PaddedToCT; }
   /** Padded voxels, x fastest, in steps of Quantum(); two extra zeros after the last voxel let
    *  a 32-bit load start at any voxel. */
@@ -68,8 +83,6 @@ public:
   const uint16_t* VoxelsYFastest() const { return this->MuYFastest.get(); }
   /** mu (1/mm) of one step of Voxels(). */
   double Quantum() const { return this->Step; }
-  /** mu of original voxel (i, j, k). */
-  float At(int i, int j, int k) const;
 
   const Eigen::Vector3i& BlockDimensions() const { return this->Blocks; }
   /** One flag per block, non-zero where it holds attenuation: block (bx, by, bz) at
@@ -84,13 +97,23 @@ public:
   double OccupiedFraction() const;
 
 private:
-  /** Offset in Voxels() of original voxel (i, j, k). */
+  /** Stores mu of the voxels low + [0, size) of `hounsfield`, an arrayDims array of HU whose
+   *  largest non-air value is `highest`, as the voxels of StoredOrigin() + [0, size). */
+  template <typename HU>
+  void Store(const HU* hounsfield, const Eigen::Vector3i& arrayDims, const Eigen::Vector3i& low,
+    const Eigen::Vector3i& size, float highest, float airThreshold);
+
+  /** Voxels() value of CT voxel (i, j, k), 0 outside the stored box. */
+  uint16_t StepsAt(int i, int j, int k) const;
+  /** Offset in Voxels() of stored voxel (i, j, k). */
   size_t Offset(int i, int j, int k) const
   {
     return (static_cast<size_t>(k + 1) * this->Padded[1] + (j + 1)) * this->Padded[0] + (i + 1);
   }
 
   Eigen::Vector3i Dims = Eigen::Vector3i::Zero();
+  Eigen::Affine3d CTIndexToCT = Eigen::Affine3d::Identity();
+  Eigen::Vector3i Origin = Eigen::Vector3i::Zero();
   Eigen::Vector3i Padded = Eigen::Vector3i::Zero();
   Eigen::Vector3i Blocks = Eigen::Vector3i::Zero();
   Eigen::Affine3d PaddedToCT = Eigen::Affine3d::Identity();

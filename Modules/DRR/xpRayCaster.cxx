@@ -513,10 +513,10 @@ void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, float* i
 }
 
 /** Exact integral of the voxels the ray crosses for tEnter <= t < tExit (a Siddon / Amanatides &
- *  Woo voxel walk); the stretch lies inside the original voxels. */
+ *  Woo voxel walk); the stretch lies inside the stored voxels. */
 double SiddonRun(const AttenuationVolume& volume, const IndexRay& ray, double tEnter, double tExit)
 {
-  const Eigen::Vector3i& dims = volume.Dimensions();
+  const Eigen::Vector3i dims = volume.StoredDimensions();
   const Eigen::Vector3d mid = ray.start + 0.5 * (tEnter + tExit) * ray.direction;
   const Eigen::Vector3d entry = ray.start + tEnter * ray.direction;
   Eigen::Vector3i voxel, stepVoxel;
@@ -553,7 +553,7 @@ double SiddonRun(const AttenuationVolume& volume, const IndexRay& ray, double tE
     if (tNext[2] < tNext[axis])
       axis = 2;
     const double tEnd = std::min(tNext[axis], tExit);
-    sum += (tEnd - t) * volume.At(voxel[0], voxel[1], voxel[2]);
+    sum += (tEnd - t) * volume.StoredAt(voxel[0], voxel[1], voxel[2]);
     t = tEnd;
     voxel[axis] += stepVoxel[axis];
     tNext[axis] += tDelta[axis];
@@ -568,8 +568,8 @@ double SiddonRun(const AttenuationVolume& volume, const IndexRay& ray, double tE
 /** Exact integral through nearest-neighbour voxels, walking only the occupied blocks. */
 double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
 {
-  // Original voxel i (padded i + 1) spans padded coordinates [i + 0.5, i + 1.5].
-  const Eigen::Vector3d lo = Eigen::Vector3d::Constant(0.5), hi = volume.Dimensions().cast<double>() + lo;
+  // Stored voxel i (padded i + 1) spans padded coordinates [i + 0.5, i + 1.5].
+  const Eigen::Vector3d lo = Eigen::Vector3d::Constant(0.5), hi = volume.StoredDimensions().cast<double>() + lo;
   double tEnter, tExit;
   if (!ClipToBox(ray, lo, hi, tEnter, tExit))
   {

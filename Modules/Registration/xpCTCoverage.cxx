@@ -19,11 +19,12 @@ std::vector<uint8_t> Outline(const AttenuationVolume& volume, int radiusI, int r
 {
   const Eigen::Vector3i& d = volume.Dimensions();
   std::vector<uint8_t> seen(static_cast<size_t>(d[0]) * d[1], 0);
-  for (int k = 0; k < d[2]; ++k)
-    for (int j = 0; j < d[1]; ++j)
-      for (int i = 0; i < d[0]; ++i)
-        if (volume.At(i, j, k) > 0.0f)
-          seen[static_cast<size_t>(j) * d[0] + i] = 1;
+  const Eigen::Vector3i stored = volume.StoredDimensions(), origin = volume.StoredOrigin(); // all attenuation is there
+  for (int k = 0; k < stored[2]; ++k)
+    for (int j = 0; j < stored[1]; ++j)
+      for (int i = 0; i < stored[0]; ++i)
+        if (volume.StoredAt(i, j, k) > 0.0f)
+          seen[static_cast<size_t>(origin[1] + j) * d[0] + origin[0] + i] = 1;
   std::vector<uint8_t> wide(seen.size(), 0), rows(seen.size(), 0);
   for (int j = 0; j < d[1]; ++j)
     for (int i = 0; i < d[0]; ++i)
@@ -48,8 +49,8 @@ CTCoverage::CTCoverage(const AttenuationVolume& volume, double marginMM)
   : Volume(volume)
   , MarginMM(marginMM)
 {
-  // Original voxel index -> CT, and its spacing along each index axis.
-  this->IndexToCT = volume.PaddedIndexToCT() * Eigen::Translation3d(1.0, 1.0, 1.0);
+  // CT voxel index -> CT mm, and its spacing along each index axis.
+  this->IndexToCT = volume.IndexToCT();
   this->Spacing = Eigen::Vector3d(this->IndexToCT.linear().col(0).norm(), this->IndexToCT.linear().col(1).norm(),
     this->IndexToCT.linear().col(2).norm());
   this->Outline = xp::Outline(volume, static_cast<int>(std::ceil(marginMM / this->Spacing[0])),

@@ -496,7 +496,7 @@ TEST(CTCoverage, AgreesWithDenseSamplingOfEveryRayAtAnObliquePose)
 
   const xp::AttenuationVolume& volume = cropped.volume;
   const Eigen::Vector3i d = volume.Dimensions();
-  const Eigen::Affine3d indexToCT = volume.PaddedIndexToCT() * Eigen::Translation3d(1.0, 1.0, 1.0);
+  const Eigen::Affine3d indexToCT = volume.IndexToCT();
   const double spacing = indexToCT.linear().col(0).norm(); // isotropic phantom
   const int radius = static_cast<int>(std::ceil(margin / spacing));
   std::vector<uint8_t> body(static_cast<size_t>(d[0]) * d[1], 0);
