@@ -261,6 +261,9 @@ void WriteDICOMResult(const CTSeriesInfo& ct, const StereoRegistrationResult& re
     SpatialRegistration registration;
     registration.ctToSession = MisalignmentInCT(inputs.planned, result.misalignment, setup.patient.roomIsocenter);
     registration.contentDescription = "xpose: patient misalignment; table correction = inverse";
+    for (const std::string& xray : options.xrays) // DICOM X-rays are the session's images
+      if (const std::optional<InstanceReference> reference = ReadInstanceReference(xray))
+        registration.sessionImages.push_back(*reference);
     const std::string uid = WriteSpatialRegistration(ct, registration, output.Path("reg.dcm"));
     written += " and the Spatial Registration " + uid + " (reg.dcm)";
   }

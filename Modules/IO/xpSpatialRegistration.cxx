@@ -8,7 +8,9 @@
 #include <gdcmTrace.h>
 #include <gdcmWriter.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <iterator>
 #include <ctime>
 #include <fstream>
 #include <random>
@@ -58,7 +60,64 @@ gdcm::DataSet RegistrationItem(
   return item;
 }
 
+/** Referenced Image / Instance Sequence items: class and instance UIDs. */
+std::vector<gdcm::DataSet> ImageItems(const std::vector<InstanceReference>& images)
+{
+  std::vector<gdcm::DataSet> items;
+  for (const InstanceReference& image : images)
+  {
+    gdcm::DataSet item;
+    Put(item, 0x0008, 0x1150, gdcm::VR::UI, image.sopClassUID);
+    Put(item, 0x0008, 0x1155, gdcm::VR::UI, image.sopInstanceUID);
+    items.push_back(item);
+  }
+  return items;
+}
+
+/** The distinct values of one UID of `references`, in order of first appearance. */
+std::vector<std::string> Distinct(const std::vector<InstanceReference>& references, std::string InstanceReference::*uid)
+{
+  std::vector<std::string> values;
+  for (const InstanceReference& r : references)
+    if (std::find(values.begin(), values.end(), r.*uid) == values.end())
+      values.push_back(r.*uid);
+  return values;
+}
+
+/** Referenced Series Sequence items: each series with its instances. */
+std::vector<gdcm::DataSet> SeriesItems(const std::vector<InstanceReference>& references)
+{
+  std::vector<gdcm::DataSet> items;
+  for (const std::string& series : Distinct(references, &InstanceReference::seriesInstanceUID))
+  {
+    std::vector<InstanceReference> ofSeries;
+    std::copy_if(references.begin(), references.end(), std::back_inserter(ofSeries),
+      [&](const InstanceReference& r) { return r.seriesInstanceUID == series; });
+    gdcm::DataSet item;
+    PutSequence(item, 0x0008, 0x114a, ImageItems(ofSeries)); // Referenced Instance Sequence
+    Put(item, 0x0020, 0x000e, gdcm::VR::UI, series);
+    items.push_back(item);
+  }
+  return items;
+}
+
 } // namespace
+
+std::optional<InstanceReference> ReadInstanceReference(const std::string& path)
+{
+  gdcm::Trace::WarningOff();
+  gdcm::Reader reader;
+  reader.SetFileName(path.c_str());
+  if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010)))
+    return std::nullopt;
+  const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  InstanceReference reference{ Value(ds, gdcm::Tag(0x0008, 0x0016)), Value(ds, gdcm::Tag(0x0008, 0x0018)),
+    Value(ds, gdcm::Tag(0x0020, 0x000e)), Value(ds, gdcm::Tag(0x0020, 0x000d)) };
+  if (reference.sopClassUID.empty() || reference.sopInstanceUID.empty() || reference.seriesInstanceUID.empty() ||
+    reference.studyInstanceUID.empty())
+    return std::nullopt;
+  return reference;
+}
 
 std::string NewDICOMUID()
 {
@@ -104,23 +163,33 @@ std::string WriteSpatialRegistration(const CTSeriesInfo& ct, const SpatialRegist
   Put(ds, 0x0070, 0x0084, gdcm::VR::PN, registration.creator);
 
   // Every CT image: the registration applies to them, and the instance references them.
-  std::vector<gdcm::DataSet> instances;
+  std::vector<InstanceReference> ctImages;
   for (const std::string& uid : ct.sopInstanceUIDs)
-  {
-    gdcm::DataSet instance;
-    Put(instance, 0x0008, 0x1150, gdcm::VR::UI, ct.sopClassUID);
-    Put(instance, 0x0008, 0x1155, gdcm::VR::UI, uid);
-    instances.push_back(instance);
-  }
-  // The registration: the session's own Frame of Reference, and the CT's into it.
+    ctImages.push_back({ ct.sopClassUID, uid, ct.seriesInstanceUID, ct.studyInstanceUID });
+  // The registration: the session's own Frame of Reference with its images, and the CT's into it.
   PutSequence(ds, 0x0070, 0x0308,
-    { RegistrationItem(sessionFrame, Eigen::Isometry3d::Identity()),
-      RegistrationItem(ct.frameOfReferenceUID, registration.ctToSession, instances) });
-  // Common Instance Reference: the CT's series, in the same study.
-  gdcm::DataSet series;
-  PutSequence(series, 0x0008, 0x114a, instances);
-  Put(series, 0x0020, 0x000e, gdcm::VR::UI, ct.seriesInstanceUID);
-  PutSequence(ds, 0x0008, 0x1115, { series });
+    { RegistrationItem(sessionFrame, Eigen::Isometry3d::Identity(), ImageItems(registration.sessionImages)),
+      RegistrationItem(ct.frameOfReferenceUID, registration.ctToSession, ImageItems(ctImages)) });
+  // Common Instance Reference: the series of this study, then those of other studies.
+  std::vector<InstanceReference> all = ctImages;
+  all.insert(all.end(), registration.sessionImages.begin(), registration.sessionImages.end());
+  std::vector<gdcm::DataSet> otherStudies;
+  for (const std::string& study : Distinct(all, &InstanceReference::studyInstanceUID))
+  {
+    std::vector<InstanceReference> ofStudy;
+    std::copy_if(all.begin(), all.end(), std::back_inserter(ofStudy), [&](const InstanceReference& r) { return r.studyInstanceUID == study; });
+    if (study == ct.studyInstanceUID)
+    {
+      PutSequence(ds, 0x0008, 0x1115, SeriesItems(ofStudy));
+      continue;
+    }
+    gdcm::DataSet item;
+    PutSequence(item, 0x0008, 0x1115, SeriesItems(ofStudy));
+    Put(item, 0x0020, 0x000d, gdcm::VR::UI, study);
+    otherStudies.push_back(item);
+  }
+  if (!otherStudies.empty())
+    PutSequence(ds, 0x0008, 0x1200, otherStudies); // Studies Containing Other Referenced Instances
 
   dicom::WriteFile(writer, path, "Spatial Registration");
   return sopInstanceUID;

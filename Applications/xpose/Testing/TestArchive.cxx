@@ -159,6 +159,8 @@ TEST_F(ArchiveTest, RegistersAStudyHeldOnlyInTheArchiveAndStoresTheResultsBack)
   const std::string written = options.outputDirectory + "/dicom/reg.dcm";
   archive.FetchInstance(InstanceUID(written), this->Folder + "/reg-back.dcm");
   EXPECT_EQ(Contents(this->Folder + "/reg-back.dcm"), Contents(written));
+  for (const std::string& xray : xrays) // the REG names the X-rays it was found from
+    EXPECT_NE(Contents(written).find(xray), std::string::npos) << xray;
 }
 
 TEST_F(ArchiveTest, AmbiguousOrMissingCTsUnreachableArchivesAndRefusedFilesAreClearErrors)

@@ -101,6 +101,9 @@ TEST(SpatialRegistration, WritesAValidREGLinkedToTheCT)
   xp::SpatialRegistration registration;
   registration.ctToSession = Eigen::Translation3d(1.0, -2.0, 3.5) * Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitZ());
   registration.contentDescription = "estimated misalignment; table correction = its inverse";
+  // The X-rays: one of the CT's study, one of another (the treatment session's) study.
+  const std::string dx = "1.2.840.10008.5.1.4.1.1.1.1";
+  registration.sessionImages = { { dx, "1.2.3.4.1", "1.2.3.4", ct.studyInstanceUID }, { dx, "1.2.3.5.1", "1.2.3.5", "1.2.3" } };
   const std::string uid = xp::WriteSpatialRegistration(ct, registration, dir + "/reg.dcm");
   EXPECT_EQ(uid.rfind("2.25.", 0), 0u);
   EXPECT_LE(uid.size(), 64u);
@@ -131,10 +134,22 @@ TEST(SpatialRegistration, WritesAValidREGLinkedToTheCT)
   EXPECT_TRUE(xp::ReadSpatialRegistrationMatrix(dir + "/reg.dcm", session).isApprox(Eigen::Isometry3d::Identity()));
   EXPECT_THROW(xp::ReadSpatialRegistrationMatrix(dir + "/reg.dcm", "1.2.3"), xp::InputError);
   EXPECT_THROW(xp::ReadSpatialRegistrationMatrix(ct.files.front(), ct.frameOfReferenceUID), xp::InputError);
-  // Every CT image is referenced.
+  // Every CT image is referenced, and the X-rays in the session's Frame of Reference.
   const gdcm::DataSet& series = Item(ds, 0x0008, 0x1115, 1);
   EXPECT_EQ(Text(series, 0x0020, 0x000e), ct.seriesInstanceUID);
   EXPECT_EQ(series.GetDataElement(gdcm::Tag(0x0008, 0x114a)).GetValueAsSQ()->GetNumberOfItems(), 5u);
+  EXPECT_EQ(Text(Item(fixed, 0x0008, 0x1140, 1), 0x0008, 0x1155), "1.2.3.4.1");
+  EXPECT_EQ(Text(Item(fixed, 0x0008, 0x1140, 2), 0x0008, 0x1155), "1.2.3.5.1");
+  EXPECT_EQ(Text(Item(ds, 0x0008, 0x1115, 2), 0x0020, 0x000e), "1.2.3.4"); // same study
+  const gdcm::DataSet& otherStudy = Item(ds, 0x0008, 0x1200, 1);
+  EXPECT_EQ(Text(otherStudy, 0x0020, 0x000d), "1.2.3");
+  EXPECT_EQ(Text(Item(Item(otherStudy, 0x0008, 0x1115, 1), 0x0008, 0x114a, 1), 0x0008, 0x1155), "1.2.3.5.1");
+  // An X-ray's identity comes from its own file; a file that is not DICOM has none.
+  const std::optional<xp::InstanceReference> own = xp::ReadInstanceReference(ct.files.front());
+  ASSERT_TRUE(own.has_value());
+  EXPECT_EQ(own->seriesInstanceUID, ct.seriesInstanceUID);
+  EXPECT_EQ(own->studyInstanceUID, ct.studyInstanceUID);
+  EXPECT_FALSE(xp::ReadInstanceReference(dir + "/dciodvfy-missing.txt").has_value());
 
   if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
   {
