@@ -9,7 +9,12 @@ function(xp_add_gtest name)
   target_compile_definitions(${name} PRIVATE
     XP_SHARED_DATA_DIR="${PROJECT_SOURCE_DIR}/../shared/data"
     XP_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
-  set(labels unit ${arg_LABELS})
+  # One label per test: gtest_discover_tests passes PROPERTIES on as separate words, so a list
+  # of labels ("unit;pacs") would turn into a property named "pacs".
+  set(labels unit)
+  if(arg_LABELS)
+    set(labels ${arg_LABELS})
+  endif()
   gtest_discover_tests(${name} DISCOVERY_MODE PRE_TEST
     WORKING_DIRECTORY "${CMAKE_CURRENT_BINARY_DIR}"
     PROPERTIES LABELS "${labels}" TIMEOUT 600)
