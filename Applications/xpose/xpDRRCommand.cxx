@@ -6,6 +6,7 @@
 #include "xpImageGeometry.h"
 #include "xpImageRows.h"
 #include "xpPose.h"
+#include "xpRTImageGeometry.h"
 #include "xpSpatialRegistration.h"
 
 #include <vtkFloatArray.h>
@@ -233,6 +234,21 @@ CTSeriesInfo DICOMSeriesForOutput(const std::string& ct, const std::string& seri
   return info;
 }
 
+void CheckRTImageViews(const StereoGeometry& geometry, const std::string& option)
+{
+  for (const XRayView& view : geometry.views)
+  {
+    try
+    {
+      RTImageGeometryOf(view, geometry.isocenter);
+    }
+    catch (const InputError& e)
+    {
+      throw InputError(option, std::string(e.what()) + ": its DRR cannot be written as an RT Image");
+    }
+  }
+}
+
 RTImageDRR RTImageOfLastDRR(const DRRSetup& setup, const std::string& description)
 {
   RTImageDRR image;
@@ -269,6 +285,7 @@ int RunDRR(const DRROptions& options)
   {
     StagedOutputDirectory::CheckWritable(options.dicomOutputDirectory);
     dicomCT = DICOMSeriesForOutput(options.ct, options.series, "--dicom-out");
+    CheckRTImageViews(setup.geometry, "--dicom-out");
   }
   int dims[3];
   setup.ct.image->GetDimensions(dims);

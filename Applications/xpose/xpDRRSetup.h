@@ -36,6 +36,10 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
  */
 CTSeriesInfo DICOMSeriesForOutput(const std::string& ct, const std::string& series, const std::string& option);
 
+/** Checks, before any work, that every imager of `geometry` can be written as an RT Image
+ *  (panels normal to the beam axis, not mirrored); throws xp::InputError naming `option`. */
+void CheckRTImageViews(const StereoGeometry& geometry, const std::string& option);
+
 /** The RT Image of the 12-bit DRR the filter rendered last (output 0) for its output view. */
 RTImageDRR RTImageOfLastDRR(const DRRSetup& setup, const std::string& description);
 

@@ -378,6 +378,8 @@ int RunRegister(const RegisterOptions& options)
   const std::optional<CTSeriesInfo> dicomCT = DICOMOutputCT(options);
   const RegistrationInputs inputs = LoadRegistrationInputs(options);
   const DRRSetup& setup = inputs.setup;
+  if (dicomCT)
+    CheckRTImageViews(setup.geometry, "--dicom-out");
   WarnOfGeometryTags(options, setup);
   const double readSeconds = Since(start);
   std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), inputs.views.size(),

@@ -188,6 +188,20 @@ TEST(Commands, BadInputExitsWithTwoAndWritesNothing)
     EXPECT_EQ(CountFiles("cmd-bad4"), 0) << field;
   }
 
+  // --dicom-out with a panel tilted against its beam axis (no RT Image for it): refused before
+  // anything is rendered or written.
+  std::ofstream("cmd-tilted-geometry.json") << "{ \"imagers\": [ { \"name\": \"A\", \"source\": [0, 0, -1000], "
+                                              "\"detector\": { \"center\": [0, 0, 500], \"row_direction\": [0.984808, 0, 0.173648], "
+                                              "\"column_direction\": [0, -1, 0], \"pixel_spacing\": [2, 2], \"size\": [64, 64] } } ] }";
+  options = SmallDRR("cmd-bad5");
+  options.geometry = "cmd-tilted-geometry.json";
+  options.size = "";
+  options.dicomOutputDirectory = "cmd-bad5-dicom";
+  ASSERT_EQ(std::system("rm -rf cmd-bad5-dicom"), 0);
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(options); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-bad5")) << "refused before the output folders are made";
+  EXPECT_FALSE(Exists("cmd-bad5-dicom"));
+
   xp::PhantomOptions phantom;
   phantom.outputDirectory = PhantomCT(); // not empty
   EXPECT_EQ(xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); }), xp::ExitBadInput);
