@@ -322,3 +322,45 @@ TEST(RayCasterAnalytic, VectorPacketsMatchOneRayAtATime)
     }
   }
 }
+
+TEST(AttenuationVolume, StoresTheBoxOfNonAirVoxelsAndKeepsTheCTGrid)
+{
+  // A 20 x 16 x 12 CT, air (and noise below the air threshold) but for a block of water at
+  // voxels x 5..9, y 3..12, z 2..2 and one bone voxel at (14, 4, 7).
+  const Eigen::Vector3i dims(20, 16, 12);
+  std::vector<int16_t> hu(static_cast<size_t>(dims.prod()), -1000);
+  const auto at = [&](int i, int j, int k) -> int16_t& { return hu[(static_cast<size_t>(k) * dims[1] + j) * dims[0] + i]; };
+  for (int j = 3; j <= 12; ++j)
+    for (int i = 5; i <= 9; ++i)
+      at(i, j, 2) = 0;
+  at(14, 4, 7) = 1000;
+  at(18, 15, 11) = -960; // noise in the air
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  indexToCT.linear() = Eigen::Vector3d(0.5, 0.75, 2.0).asDiagonal();
+  indexToCT.translation() = Eigen::Vector3d(-5.0, 3.0, 100.0);
+  const xp::AttenuationVolume volume(hu.data(), dims, indexToCT, MuWater);
+  EXPECT_EQ(volume.Dimensions(), dims);
+  EXPECT_TRUE(volume.IndexToCT().isApprox(indexToCT));
+  EXPECT_EQ(volume.StoredOrigin(), Eigen::Vector3i(5, 3, 2));
+  EXPECT_EQ(volume.StoredDimensions(), Eigen::Vector3i(10, 10, 6));
+  // The padded grid starts one voxel before the box.
+  EXPECT_TRUE((volume.PaddedIndexToCT() * Eigen::Vector3d(1, 1, 1)).isApprox(indexToCT * Eigen::Vector3d(5, 3, 2)));
+  EXPECT_NEAR(volume.At(7, 8, 2), MuWater, 1e-6);
+  EXPECT_NEAR(volume.At(14, 4, 7), 2.0 * MuWater, 1e-6);
+  EXPECT_EQ(volume.At(18, 15, 11), 0.0f);
+  EXPECT_EQ(volume.At(0, 0, 0), 0.0f);
+  EXPECT_EQ(volume.At(-1, 20, 40), 0.0f) << "outside the CT";
+  EXPECT_NEAR(volume.StoredAt(9, 1, 5), 2.0 * MuWater, 1e-6);
+  // Half resolution: the CT's grid halved, the box's voxels averaged 2 x 2 x 2.
+  const xp::AttenuationVolume half = volume.Halved();
+  EXPECT_EQ(half.Dimensions(), Eigen::Vector3i(10, 8, 6));
+  EXPECT_TRUE((half.IndexToCT() * Eigen::Vector3d(0, 0, 0)).isApprox(indexToCT * Eigen::Vector3d(0.5, 0.5, 0.5)));
+  EXPECT_NEAR(half.At(7, 2, 3), 2.0 * MuWater / 8.0, 1e-6);  // the bone voxel, one of eight
+  EXPECT_NEAR(half.At(3, 3, 1), MuWater / 2.0, 1e-6);        // water in one of two slices
+  EXPECT_EQ(half.At(9, 7, 5), 0.0f);
+  // All air: one stored voxel, and every ray integrates to zero.
+  std::vector<float> air(static_cast<size_t>(dims.prod()), -1000.0f);
+  const xp::AttenuationVolume empty(air.data(), dims, indexToCT, MuWater);
+  EXPECT_EQ(empty.StoredDimensions(), Eigen::Vector3i(1, 1, 1));
+  EXPECT_EQ(empty.OccupiedFraction(), 0.0);
+}
