@@ -98,10 +98,13 @@ int RunBenchDRR(const BenchOptions& options)
   scene.ctToRoom = setup.patient.PlannedCTToRoom(ImageCenter(ct));
 
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::printf("xpose bench drr\nCT: %s, %d x %d x %d voxels; attenuation volume built in %.3f s, %.0f %% of %d^3 blocks "
-              "occupied\ngeometry: %s, %zu views; machine: %d hardware threads; median of %d runs\n\n",
-    options.ct.c_str(), dims[0], dims[1], dims[2], prepareSeconds, 100.0 * scene.volume.OccupiedFraction(), 1 << AttenuationVolume::BlockShift,
-    options.geometry.c_str(), scene.views.size(), cores, options.repetitions);
+  const Eigen::Vector3i stored = scene.volume.StoredDimensions();
+  std::printf("xpose bench drr\nCT: %s, %d x %d x %d voxels; attenuation volume built in %.3f s, storing the %d x %d x %d "
+              "voxels around the body, %.0f %% of its %d^3 blocks occupied\ngeometry: %s, %zu views; machine: %d hardware "
+              "threads; median of %d runs\n\n",
+    options.ct.c_str(), dims[0], dims[1], dims[2], prepareSeconds, stored[0], stored[1], stored[2],
+    100.0 * scene.volume.OccupiedFraction(), 1 << AttenuationVolume::BlockShift, options.geometry.c_str(), scene.views.size(),
+    cores, options.repetitions);
 
   std::printf("Unmasked rendering, all views per run\n%-10s %-9s %-7s %10s %12s %14s %10s\n", "method", "size", "threads",
     "rays", "time (s)", "M rays/s", "speed-up");

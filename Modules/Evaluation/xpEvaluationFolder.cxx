@@ -1,6 +1,7 @@
 #include "xpEvaluationFolder.h"
 
 #include "xpError.h"
+#include "xpWholeFile.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -10,32 +11,6 @@
 
 namespace xp
 {
-
-namespace
-{
-
-std::string ReadWholeFile(const std::string& path)
-{
-  std::ifstream in(path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-} // namespace
-
-void WriteWholeFile(const std::string& path, const std::string& text)
-{
-  const std::string partial = path + ".partial";
-  std::ofstream out(partial);
-  out << text;
-  out.close();
-  if (!out || std::rename(partial.c_str(), path.c_str()) != 0)
-  {
-    std::remove(partial.c_str());
-    throw Error(path, "cannot write");
-  }
-}
 
 EvaluationFolder::EvaluationFolder(const std::string& directory, const std::string& settingsJSON)
   : Directory(directory)

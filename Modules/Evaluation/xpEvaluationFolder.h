@@ -48,9 +48,6 @@ private:
   std::ofstream CSV;
 };
 
-/** Writes `text` to `path` through a .partial file, so that `path` is never half-written. */
-VTKXPEVALUATION_EXPORT void WriteWholeFile(const std::string& path, const std::string& text);
-
 } // namespace xp
 
 #endif

@@ -1,6 +1,7 @@
 #include "xpStereoGeometry.h"
 
 #include "xpError.h"
+#include "xpWholeFile.h"
 
 #include <vtk_jsoncpp.h>
 
@@ -243,14 +244,7 @@ StereoGeometry ParseStereoGeometry(const std::string& jsonText, const std::strin
 
 StereoGeometry ReadStereoGeometry(const std::string& path)
 {
-  std::ifstream file(path);
-  if (!file)
-  {
-    throw InputError(path, "cannot open the geometry file");
-  }
-  std::stringstream text;
-  text << file.rdbuf();
-  return ParseStereoGeometry(text.str(), path);
+  return ParseStereoGeometry(ReadWholeFile(path), path);
 }
 
 std::string FormatStereoGeometry(const StereoGeometry& geometry)

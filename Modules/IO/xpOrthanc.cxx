@@ -1,6 +1,7 @@
 #include "xpOrthanc.h"
 
 #include "xpError.h"
+#include "xpWholeFile.h"
 
 #include <vtk_jsoncpp.h>
 
@@ -53,16 +54,6 @@ Json::Value ParseJSON(const std::string& text, const std::string& what)
   if (!reader->parse(text.data(), text.data() + text.size(), &value, &errors))
     throw Error(what, "the archive answered with something that is not JSON: " + errors);
   return value;
-}
-
-std::string ReadFile(const std::string& path)
-{
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(path, "cannot be read");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
 }
 
 } // namespace
@@ -291,7 +282,7 @@ void OrthancArchive::Store(const std::vector<std::string>& files) const
     std::string failure;
     try
     {
-      response = this->Request("POST", "/instances", ReadFile(file), "application/dicom");
+      response = this->Request("POST", "/instances", ReadWholeFile(file), "application/dicom");
       if (response.status != 200)
         failure = "the archive refused it (" + std::to_string(response.status) + ")";
     }

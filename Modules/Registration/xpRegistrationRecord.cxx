@@ -1,6 +1,7 @@
 #include "xpRegistrationRecord.h"
 
 #include "xpError.h"
+#include "xpWholeFile.h"
 
 #include <vtk_jsoncpp.h>
 
@@ -350,12 +351,7 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
 
 RegistrationRecord ReadRegistrationRecord(const std::string& path)
 {
-  std::ifstream in(path);
-  if (!in)
-    throw InputError(path, "cannot be read");
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseRegistrationRecord(text.str(), path);
+  return ParseRegistrationRecord(ReadWholeFile(path), path);
 }
 
 } // namespace xp

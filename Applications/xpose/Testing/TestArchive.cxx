@@ -6,6 +6,7 @@
 #include "xpDICOMSeriesWriter.h"
 #include "xpError.h"
 #include "xpOrthanc.h"
+#include "xpWholeFile.h"
 
 #include <chrono>
 #include <csignal>
@@ -26,10 +27,7 @@ const std::string Geometry = std::string(XP_SOURCE_DIR) + "/Data/geometry/stereo
 
 std::string Contents(const std::string& path)
 {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+  return xp::ReadWholeFile(path);
 }
 
 /** The SOP Instance UID of a file xpose wrote (ScanCTSeries-free: the RT Image's own tag). */

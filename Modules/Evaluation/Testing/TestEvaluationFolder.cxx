@@ -2,6 +2,7 @@
 #include "xpError.h"
 #include "xpEvaluationFolder.h"
 #include "xpEvaluationScenario.h"
+#include "xpWholeFile.h"
 
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -29,10 +30,7 @@ xp::TrialRecord Row(int trial, const std::string& approach)
 
 std::string Text(const std::string& path)
 {
-  std::ifstream in(path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+  return xp::ReadWholeFile(path);
 }
 
 } // namespace

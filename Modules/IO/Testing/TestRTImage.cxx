@@ -8,6 +8,7 @@
 #include "xpImageIO.h"
 #include "xpRTImage.h"
 #include "xpSpatialRegistration.h"
+#include "xpTestDICOM.h"
 #include "xpTestFolders.h"
 
 #include <cmath>
@@ -18,7 +19,10 @@
 #include <vtkImageData.h>
 #include <vtkNew.h>
 
+using xp::testing::DciodvfyReport;
+using xp::testing::ExpectDcmtkReads;
 using xp::testing::FreshFolder;
+using xp::testing::HaveDciodvfy;
 
 namespace
 {
@@ -52,13 +56,6 @@ xp::RTImageDRR DRROf(const xp::XRayView& view)
   return drr;
 }
 
-/** dcmtk, an independent reader, reads the whole file without complaint (when installed). */
-void ExpectDcmtkReads(const std::string& path)
-{
-  if (std::system("command -v dcmdump > /dev/null 2>&1") == 0)
-    EXPECT_EQ(std::system(("dcmdump -q " + path + " > /dev/null").c_str()), 0) << path;
-}
-
 } // namespace
 
 TEST(RTImage, DRRsAreValidAndTheirTagsGiveBackTheImager)
@@ -83,16 +80,13 @@ TEST(RTImage, DRRsAreValidAndTheirTagsGiveBackTheImager)
     EXPECT_NEAR(back.pixelSpacing[0], view.pixelSpacing[0], 1e-9);
     EXPECT_EQ(back.size, view.size);
 
-    if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
-      continue;
-    const std::string log = path + ".txt";
-    std::system(("dciodvfy " + path + " > " + log + " 2>&1").c_str());
-    std::ifstream in(log);
-    std::stringstream text;
-    text << in.rdbuf();
-    EXPECT_EQ(text.str().find("Error"), std::string::npos) << text.str();
+    if (HaveDciodvfy())
+    {
+      const std::string report = DciodvfyReport(path);
+      EXPECT_EQ(report.find("Error"), std::string::npos) << report;
+    }
   }
-  if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
+  if (!HaveDciodvfy())
     GTEST_SKIP() << "dciodvfy (Debian package dicom3tools) not installed: the IOD check is skipped";
 }
 
@@ -167,11 +161,8 @@ TEST(SecondaryCapture, TheReportPictureIsAValidImageInTheCTsStudy)
   EXPECT_EQ(uid.rfind("2.25.", 0), 0u);
   ExpectDcmtkReads(path);
   EXPECT_THROW(xp::WriteSecondaryCapture(ct, dir + "/no-such.png", "", dir + "/x.dcm"), xp::InputError);
-  if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
+  if (!HaveDciodvfy())
     GTEST_SKIP() << "dciodvfy (Debian package dicom3tools) not installed: the IOD check is skipped";
-  std::system(("dciodvfy " + path + " > " + path + ".txt 2>&1").c_str());
-  std::ifstream in(path + ".txt");
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str().find("Error"), std::string::npos) << text.str();
+  const std::string report = DciodvfyReport(path);
+  EXPECT_EQ(report.find("Error"), std::string::npos) << report;
 }

@@ -5,6 +5,7 @@
 #include "xpDICOMSeriesWriter.h"
 #include "xpPose.h"
 #include "xpSpatialRegistration.h"
+#include "xpTestDICOM.h"
 #include "xpTestFolders.h"
 
 #include <gdcmReader.h>
@@ -108,8 +109,7 @@ TEST(SpatialRegistration, WritesAValidREGLinkedToTheCT)
   EXPECT_EQ(uid.rfind("2.25.", 0), 0u);
   EXPECT_LE(uid.size(), 64u);
 
-  if (std::system("command -v dcmdump > /dev/null 2>&1") == 0) // dcmtk, an independent reader
-    EXPECT_EQ(std::system(("dcmdump -q " + dir + "/reg.dcm > /dev/null").c_str()), 0);
+  xp::testing::ExpectDcmtkReads(dir + "/reg.dcm");
   gdcm::Reader reader;
   reader.SetFileName((dir + "/reg.dcm").c_str());
   ASSERT_TRUE(reader.Read());
@@ -149,16 +149,11 @@ TEST(SpatialRegistration, WritesAValidREGLinkedToTheCT)
   ASSERT_TRUE(own.has_value());
   EXPECT_EQ(own->seriesInstanceUID, ct.seriesInstanceUID);
   EXPECT_EQ(own->studyInstanceUID, ct.studyInstanceUID);
-  EXPECT_FALSE(xp::ReadInstanceReference(dir + "/dciodvfy-missing.txt").has_value());
+  std::ofstream(dir + "/note.txt") << "not DICOM";
+  EXPECT_FALSE(xp::ReadInstanceReference(dir + "/note.txt").has_value());
 
-  if (std::system("command -v dciodvfy > /dev/null 2>&1") != 0)
-  {
+  if (!xp::testing::HaveDciodvfy())
     GTEST_SKIP() << "dciodvfy (Debian package dicom3tools) not installed: the IOD check is skipped";
-  }
-  const std::string log = dir + "/dciodvfy.txt";
-  std::system(("dciodvfy " + dir + "/reg.dcm > " + log + " 2>&1").c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str().find("Error"), std::string::npos) << text.str();
+  const std::string report = xp::testing::DciodvfyReport(dir + "/reg.dcm");
+  EXPECT_EQ(report.find("Error"), std::string::npos) << report;
 }

@@ -135,20 +135,18 @@ TEST(XRayGeometryTags, MissingAndContradictoryTagsAreNamed)
     EXPECT_NE(message.find(path), std::string::npos) << message;
     EXPECT_NE(message.find(m.named), std::string::npos) << m.named << ": " << message;
   }
-  std::vector<TestElement> contradictory = good;
-  contradictory.push_back({ 0x0018, 0x1110, gdcm::VR::DS, "800" }); // the panel nearer than the isocentre
-  xp::testing::WriteDX(dir + "/near.dcm", "DX", false, contradictory);
-  EXPECT_NE(ReadError(dir + "/near.dcm").find("Distance Source to Patient (0018,1111)"), std::string::npos);
-  std::vector<TestElement> column = good;
-  column.push_back({ 0x0018, 0x1508, gdcm::VR::CS, "COLUMN" });
-  xp::testing::WriteDX(dir + "/column.dcm", "DX", false, column);
-  EXPECT_NE(ReadError(dir + "/column.dcm").find("Positioner Type (0018,1508)"), std::string::npos);
-  std::vector<TestElement> garbled = good;
-  garbled.push_back({ 0x0018, 0x1510, gdcm::VR::DS, "LAO" });
-  xp::testing::WriteDX(dir + "/garbled.dcm", "DX", false, garbled);
-  EXPECT_NE(ReadError(dir + "/garbled.dcm").find("'LAO' is not a finite number"), std::string::npos);
-  std::vector<TestElement> ct = good;
-  ct.push_back({ 0x0008, 0x0016, gdcm::VR::UI, "1.2.840.10008.5.1.4.1.1.2" });
-  xp::testing::WriteDX(dir + "/ct.dcm", "OT", false, ct);
-  EXPECT_NE(ReadError(dir + "/ct.dcm").find("SOP Class UID (0008,0016)"), std::string::npos);
+  // One element replaced: the message names what is wrong.
+  const auto errorWith = [&](const TestElement& replaced, const char* modality = "DX")
+  {
+    std::vector<TestElement> tags = good;
+    tags.push_back(replaced);
+    xp::testing::WriteDX(dir + "/replaced.dcm", modality, false, tags);
+    return ReadError(dir + "/replaced.dcm");
+  };
+  // The panel nearer than the isocentre.
+  EXPECT_NE(errorWith({ 0x0018, 0x1110, gdcm::VR::DS, "800" }).find("Distance Source to Patient (0018,1111)"), std::string::npos);
+  EXPECT_NE(errorWith({ 0x0018, 0x1508, gdcm::VR::CS, "COLUMN" }).find("Positioner Type (0018,1508)"), std::string::npos);
+  EXPECT_NE(errorWith({ 0x0018, 0x1510, gdcm::VR::DS, "LAO" }).find("'LAO' is not a finite number"), std::string::npos);
+  EXPECT_NE(errorWith({ 0x0008, 0x0016, gdcm::VR::UI, "1.2.840.10008.5.1.4.1.1.2" }, "OT").find("SOP Class UID (0008,0016)"),
+    std::string::npos);
 }

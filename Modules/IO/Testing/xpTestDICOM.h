@@ -5,7 +5,10 @@
 #include <gdcmImageWriter.h>
 #include <gtest/gtest.h>
 
+#include "xpWholeFile.h"
+
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -69,6 +72,26 @@ inline void WriteDX(const std::string& path, const char* modality, bool monochro
   ASSERT_TRUE(writer.Write());
 }
 
+
+/** Whether dicom3tools' dciodvfy is installed (Debian package dicom3tools). */
+inline bool HaveDciodvfy()
+{
+  return std::system("command -v dciodvfy > /dev/null 2>&1") == 0;
+}
+
+/** dciodvfy's report on the DICOM file at `path` (its IOD check), kept beside it. */
+inline std::string DciodvfyReport(const std::string& path)
+{
+  std::system(("dciodvfy " + path + " > " + path + ".dciodvfy.txt 2>&1").c_str());
+  return xp::ReadWholeFile(path + ".dciodvfy.txt");
+}
+
+/** dcmtk, an independent reader, reads the whole file without complaint (when installed). */
+inline void ExpectDcmtkReads(const std::string& path)
+{
+  if (std::system("command -v dcmdump > /dev/null 2>&1") == 0)
+    EXPECT_EQ(std::system(("dcmdump -q " + path + " > /dev/null").c_str()), 0) << path;
+}
 
 } // namespace xp::testing
 
