@@ -9,6 +9,7 @@
 #include <gdcmSequenceOfItems.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -171,6 +172,18 @@ void PutPixelData(gdcm::DataSet& ds, gdcm::VR vr, const void* pixels, size_t byt
   ds.Replace(de);
 }
 
+bool ParseDecimal(const std::string& word, double& value)
+{
+  char* end = nullptr;
+  value = std::strtod(word.c_str(), &end);
+  if (end == word.c_str() || !std::isfinite(value))
+    return false;
+  for (; end != word.c_str() + word.size(); ++end)
+    if (!std::isspace(static_cast<unsigned char>(*end)) && *end != '\0')
+      return false;
+  return true;
+}
+
 std::string TagText(uint16_t group, uint16_t element)
 {
   char tag[16];
@@ -194,11 +207,8 @@ std::vector<double> ReadNumbers(const gdcm::DataSet& ds, uint16_t group, uint16_
   std::string word;
   while (std::getline(words, word, '\\'))
   {
-    char* end = nullptr;
-    const double value = std::strtod(word.c_str(), &end);
-    while (end && *end == ' ')
-      ++end;
-    if (end == word.c_str() || *end != '\0' || !std::isfinite(value))
+    double value = 0.0;
+    if (!ParseDecimal(word, value))
       throw InputError(path, name + " " + tag + ": '" + word + "' is not a finite number");
     values.push_back(value);
   }

@@ -44,6 +44,9 @@ void CopyPatientAndStudy(const std::string& ctFile, gdcm::DataSet& ds);
 std::string BeginInstance(gdcm::DataSet& ds, const CTSeriesInfo& ct, const std::string& sopClassUID,
   const std::string& modality, const std::string& seriesDescription, const std::string& seriesUID);
 
+/** One value of a decimal string (DS): a finite number, blanks and NULs after it allowed. Not
+ *  std::stod, which takes "nan" and "inf", which no decimal string may hold. */
+bool ParseDecimal(const std::string& word, double& value);
 /** "(0018,1110)" */
 std::string TagText(uint16_t group, uint16_t element);
 /**

@@ -1,5 +1,6 @@
 #include "xpDICOMSeries.h"
 
+#include "xpDICOMDataSet.h"
 #include "xpDICOMStructure.h"
 #include "xpError.h"
 
@@ -81,10 +82,8 @@ std::vector<double> Numbers(const std::string& text)
   std::string item;
   while (std::getline(stream, item, '\\'))
   {
-    // Not std::stod: it takes "nan" and "inf", which no DICOM decimal string may hold.
-    char* end = nullptr;
-    const double value = std::strtod(item.c_str(), &end);
-    if (end == item.c_str() || !std::isfinite(value) || Trim(end) != "")
+    double value = 0.0;
+    if (!dicom::ParseDecimal(item, value))
     {
       return {};
     }
