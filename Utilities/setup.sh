@@ -14,6 +14,7 @@ packages=(
   xvfb xauth                                  # off-screen rendering tests on a virtual display
   dicom3tools dcmtk                           # dciodvfy, dcmodify: the tests validate and edit the DICOM xpose writes
   orthanc                                     # a real DICOM archive for the `pacs` tests
+  plastimatch                                 # an X-ray renderer the project did not write (evaluate --scenario plastimatch)
 )
 sudo=""
 if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi

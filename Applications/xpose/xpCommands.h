@@ -143,6 +143,11 @@ struct EvaluateOptions
   StereoRegistrationSettings settings; ///< each approach's, but for the entropy mask
   std::vector<std::string> approaches{ "A", "B" };
   double noise = 30.0;              ///< quantum noise of the noisy scenarios, grey levels
+  std::string detector;             ///< clinical, plastimatch: linear12 | linear16 | log | processed
+  double dose = 20000.0;            ///< with a detector: Poisson quanta per pixel at full transmission
+  double electronicNoise = 0.001;   ///< with a detector: read-out noise, fraction of the open field
+  std::string xrayCT;               ///< the X-rays show this CT instead (another patient)
+  std::string xrayStretch;          ///< "AXIS,FACTOR": the X-rays show the CT stretched (near anatomy)
   double successMTRE = 1.0;         ///< mm
   int threads = 0;
   std::string outputDirectory;

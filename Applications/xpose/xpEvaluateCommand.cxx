@@ -10,6 +10,8 @@
 #include "xpTargetError.h"
 #include "xpVolumeIO.h"
 
+#include <vtkImageData.h>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -49,6 +51,8 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << "\",\n  \"scenario\": \"" << o.scenario << "\",\n  \"size\": \"" << size << "\",\n  \"seed\": " << o.seed
        << ",\n  \"min_translation_mm\": " << o.minTranslation << ",\n  \"max_translation_mm\": " << o.maxTranslation
        << ",\n  \"max_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise
+       << ",\n  \"xray_ct\": \"" << (o.xrayCT.empty() ? "" : CanonicalPath(o.xrayCT)) << "\",\n  \"xray_stretch\": \""
+       << o.xrayStretch << "\""
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
        << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
        << ",\n  \"coverage_min_excess\": " << o.settings.coverageMinExcess
@@ -118,12 +122,32 @@ void PrintProgress(const TrialRecord& r, const EvaluationFolder& folder, int tri
   std::fflush(stdout);
 }
 
+/** What the X-rays show when it is not --ct: another CT (--xray-ct) or --ct stretched. */
+vtkSmartPointer<vtkImageData> XRayCTOf(const EvaluateOptions& options, vtkImageData* ct)
+{
+  if (!options.xrayCT.empty() && !options.xrayStretch.empty())
+    throw InputError("--xray-stretch", "stretches --ct; it cannot be given with --xray-ct");
+  if (!options.xrayCT.empty())
+    return ReadCTVolume(options.xrayCT).image;
+  if (options.xrayStretch.empty())
+    return nullptr;
+  int axis = -1;
+  double factor = 0.0;
+  char tail = 0;
+  if (std::sscanf(options.xrayStretch.c_str(), "%d,%lf%c", &axis, &factor, &tail) != 2 || !(factor >= 0.5 && factor <= 2.0))
+    throw InputError("--xray-stretch", "expected AXIS,FACTOR with AXIS 0, 1 or 2 and FACTOR 0.5 to 2, got '" + options.xrayStretch + "'");
+  return StretchedCT(ct, axis, factor);
+}
+
 } // namespace
 
 int RunEvaluate(const EvaluateOptions& options)
 {
   UseThreads(options.threads);
-  const EvaluationScenario scenario(options.scenario, options.without, options.noise, options.removeTable);
+  std::optional<DetectorSettings> detector;
+  if (!options.detector.empty())
+    detector = DetectorSettings{ ParseDetectorFormat(options.detector, "--detector"), options.dose, options.electronicNoise };
+  const EvaluationScenario scenario(options.scenario, options.without, options.noise, options.removeTable, detector);
   CheckTrialOptions(options);
   AccuracyEvaluationSettings settings;
   settings.registration = RegistrationSettingsOf(options);
@@ -140,7 +164,8 @@ int RunEvaluate(const EvaluateOptions& options)
   const XRayView& first = geometry.views[0];
   const std::string size =
     std::to_string(first.Columns() / settings.shrinkFactor) + "x" + std::to_string(first.Rows() / settings.shrinkFactor);
-  AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
+  vtkSmartPointer<vtkImageData> xrayCT = XRayCTOf(options, ct.image);
+  AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings, xrayCT);
 
   EvaluationFolder folder(options.outputDirectory, SettingsText(options, size, scenario.DescribeXRays()));
   std::printf("evaluate: %s, scenario %s, %d trials x %zu approaches at %s, %zu target points; %zu registrations "

@@ -201,7 +201,8 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
   evaluateCommand->add_option("--seed", options.seed, "Seed of the trials and the noise")->capture_default_str();
   evaluateCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
   evaluateCommand->add_option("--scenario", options.scenario,
-    "clean, noisy, objects, truncated (the DRR model's X-rays) or clinical (the physics simulator)")->capture_default_str();
+    "clean, noisy, objects, truncated (the DRR model's X-rays), clinical (the physics simulator) or plastimatch "
+    "(plastimatch drr's line integrals)")->capture_default_str();
   evaluateCommand->add_option("--without", options.without,
     "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
   evaluateCommand->add_flag("!--keep-table", options.removeTable, "Register against the CT with its table");
@@ -213,6 +214,16 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
   evaluateCommand->add_option("--approaches", options.approaches, "A (whole image) and/or B (entropy masks)")
     ->capture_default_str();
   evaluateCommand->add_option("--noise", options.noise, "Quantum noise of the noisy scenarios")->capture_default_str();
+  evaluateCommand->add_option("--detector", options.detector,
+    "Image format of the clinical and plastimatch scenarios: linear12, linear16, log or processed (plastimatch: linear12)");
+  evaluateCommand->add_option("--dose", options.dose, "With a detector: Poisson quanta per pixel at full transmission (0: none)")
+    ->capture_default_str();
+  evaluateCommand->add_option("--electronic-noise", options.electronicNoise,
+    "With a detector: read-out noise, sd as a fraction of the open field")->capture_default_str();
+  evaluateCommand->add_option("--xray-ct", options.xrayCT,
+    "The X-rays show this CT instead of --ct (another patient): every trial should end failed");
+  evaluateCommand->add_option("--xray-stretch", options.xrayStretch,
+    "AXIS,FACTOR: the X-rays show --ct stretched along its index axis 0, 1 or 2 about its centre (near anatomy)");
   evaluateCommand->add_option("--success-mtre", options.successMTRE, "Success: final mTRE below this, mm")
     ->capture_default_str();
   evaluateCommand->add_option("--threads", options.threads, "Threads (0: all cores)");

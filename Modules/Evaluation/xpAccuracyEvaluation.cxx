@@ -65,11 +65,11 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
 }
 
 AccuracyEvaluation::AccuracyEvaluation(const EvaluationScenario& scenario, vtkImageData* ct, const PatientSetup& patient,
-  const StereoGeometry& geometry, const AccuracyEvaluationSettings& settings)
+  const StereoGeometry& geometry, const AccuracyEvaluationSettings& settings, vtkImageData* xrayCT)
   : Scenario(scenario.Name())
   , Settings(settings)
   , RoomIsocenter(patient.roomIsocenter)
-  , XRays(scenario, ct, patient, geometry.views, settings.shrinkFactor)
+  , XRays(scenario, xrayCT ? xrayCT : ct, patient, geometry.views, settings.shrinkFactor)
   , Registration(vtkSmartPointer<vtkXPStereoRegistrationFilter>::New())
 {
   const Eigen::Vector3d isoInCT = patient.IsocenterInCT(ImageCenter(ct));

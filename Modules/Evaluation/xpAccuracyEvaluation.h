@@ -47,10 +47,12 @@ public:
   /**
    * `ct`: the whole CT the X-rays are simulated from; the registration gets the scenario's
    * planning CT (EvaluationScenario::RegistrationCT), with the isocentre where the whole CT puts
-   * it. Throws xp::InputError when the CT has no target region.
+   * it. `xrayCT`, when given, is what the X-rays show instead (another patient, or the same one
+   * stretched), its centre at the same isocentre: such trials must end `failed`. Throws
+   * xp::InputError when the CT has no target region.
    */
   AccuracyEvaluation(const EvaluationScenario& scenario, vtkImageData* ct, const PatientSetup& patient,
-    const StereoGeometry& geometry, const AccuracyEvaluationSettings& settings);
+    const StereoGeometry& geometry, const AccuracyEvaluationSettings& settings, vtkImageData* xrayCT = nullptr);
   ~AccuracyEvaluation();
 
   size_t TargetCount() const { return this->Targets.size(); }

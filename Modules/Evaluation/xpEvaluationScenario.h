@@ -7,6 +7,7 @@
 #define xpEvaluationScenario_h
 
 #include "vtkXPEvaluationModule.h"
+#include "xpDetector.h"
 #include "xpModelXRaySimulator.h"
 #include "xpPose.h"
 #include "xpStereoSimilarity.h"
@@ -15,6 +16,7 @@
 #include <vtkSmartPointer.h>
 
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -31,17 +33,25 @@ namespace xp
  * - truncated: like noisy, but the registration's CT has half the X-rays' length;
  * - clinical: the independent physics simulator (xpXRayPhysics.h) with every effect on, a
  *   planning CT of 80 % of the length, and no CT table; `without` switches effects off
- *   ("truncation" or any XRayPhysicsEffects() name).
+ *   ("truncation" or any XRayPhysicsEffects() name);
+ * - plastimatch: line integrals from `plastimatch drr` (xpPlastimatchRenderer.h), one ray per
+ *   pixel, no scatter or blur, the whole CT for the registration.
+ * A detector (xpDetector.h) makes the images of the plastimatch scenario (linear12 unless
+ * given) and, when given, of the clinical one (whose own output is otherwise 12-bit log).
  */
 class VTKXPEVALUATION_EXPORT EvaluationScenario
 {
 public:
   /** `noise`: the DRR-model scenarios' quantum noise (XRaySimulation::noise). Throws
    *  xp::InputError naming --scenario or --without when they do not fit. */
-  EvaluationScenario(const std::string& name, const std::vector<std::string>& without, double noise, bool removeTable);
+  EvaluationScenario(const std::string& name, const std::vector<std::string>& without, double noise, bool removeTable,
+    const std::optional<DetectorSettings>& detector = std::nullopt);
 
   const std::string& Name() const { return this->Scenario; }
   bool UsesPhysics() const { return this->Scenario == "clinical"; }
+  bool UsesPlastimatch() const { return this->Scenario == "plastimatch"; }
+  /** The detector that makes the images, when not the simulator's own. */
+  const std::optional<DetectorSettings>& Detector() const { return this->DetectorModel; }
   /** Whether the registration's CT leaves out the table (clinical, unless kept). */
   bool RemovesTable() const { return this->UsesPhysics() && this->RemoveTable; }
   const XRayPhysicsSettings& Physics() const { return this->PhysicsSettings; }
@@ -60,7 +70,12 @@ private:
   bool Truncation = false;
   XRayPhysicsSettings PhysicsSettings = XRayPhysicsSettings::Clinical();
   XRaySimulation ModelSettings;
+  std::optional<DetectorSettings> DetectorModel;
 };
+
+/** `ct` stretched by `factor` along its index axis `axis` (0, 1, 2) about its centre: the same
+ *  voxels with that spacing scaled, an anatomy no rigid pose maps onto the original. */
+VTKXPEVALUATION_EXPORT vtkSmartPointer<vtkImageData> StretchedCT(vtkImageData* ct, int axis, double factor);
 
 /** The slices of `ct` whose index lies in the central `fraction` of its length (same placement). */
 VTKXPEVALUATION_EXPORT vtkSmartPointer<vtkImageData> CropSlices(vtkImageData* ct, double fraction);
@@ -81,6 +96,8 @@ private:
   int Factor = 1;
   std::unique_ptr<XRaySimulator> OwnModel;
   std::unique_ptr<XRayPhysicsSimulator> Physics;
+  std::unique_ptr<class PlastimatchRenderer> Plastimatch;
+  std::optional<DetectorSettings> DetectorModel;
 };
 
 } // namespace xp

@@ -1,5 +1,7 @@
 #include "xpXRayPhysics.h"
 
+#include "xpDetector.h"
+
 #include "xpBodyMask.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
@@ -49,42 +51,6 @@ double LengthInSlab(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double x
     t1 = std::min(t1, tb);
   }
   return t1 > t0 ? (t1 - t0) * d.norm() : 0.0;
-}
-
-/** Separable Gaussian blur of a columns x rows image, edges replicated. */
-void GaussianBlur(std::vector<float>& image, int columns, int rows, double sigmaPixels)
-{
-  if (!(sigmaPixels > 0.05))
-    return;
-  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigmaPixels)));
-  std::vector<float> kernel(2 * radius + 1);
-  double sum = 0.0;
-  for (int i = -radius; i <= radius; ++i)
-    sum += kernel[i + radius] = static_cast<float>(std::exp(-0.5 * i * i / (sigmaPixels * sigmaPixels)));
-  for (float& k : kernel)
-    k = static_cast<float>(k / sum);
-  std::vector<float> out(image.size());
-  const auto pass = [&](bool alongRows)
-  {
-    const int length = alongRows ? columns : rows, lines = alongRows ? rows : columns;
-    vtkSMPTools::For(0, lines, [&](int first, int last)
-      {
-        for (int l = first; l < last; ++l)
-          for (int i = 0; i < length; ++i)
-          {
-            float value = 0.0f;
-            for (int k = -radius; k <= radius; ++k)
-            {
-              const int j = std::clamp(i + k, 0, length - 1);
-              value += kernel[k + radius] * (alongRows ? image[static_cast<size_t>(l) * columns + j] : image[static_cast<size_t>(j) * columns + l]);
-            }
-            (alongRows ? out[static_cast<size_t>(l) * columns + i] : out[static_cast<size_t>(i) * columns + l]) = value;
-          }
-      });
-    image.swap(out);
-  };
-  pass(true);
-  pass(false);
 }
 
 } // namespace
