@@ -120,6 +120,10 @@ std::vector<float> PlastimatchRenderer::LineIntegrals(const XRayView& view, cons
   if (columns != view.Columns() || rows != view.Rows())
     throw Error("plastimatch drr", "gave " + std::to_string(columns) + "x" + std::to_string(rows) + " pixels for a " +
         std::to_string(view.Columns()) + "x" + std::to_string(view.Rows()) + " view");
+  // plastimatch's integrals are a tenth of mu (1/mm) times mm: 100 mm of water give 0.2178 with
+  // its mu of water, 0.02178 / mm (the test of a water cube pins this).
+  for (float& value : integrals)
+    value *= 10.0f;
   return integrals;
 }
 

@@ -35,7 +35,8 @@ public:
   PlastimatchRenderer(const PlastimatchRenderer&) = delete;
   PlastimatchRenderer& operator=(const PlastimatchRenderer&) = delete;
 
-  /** plastimatch's line integrals (its own HU -> attenuation) of one view at a misalignment,
+  /** plastimatch's line integrals (mu in 1/mm times mm, from its own HU -> attenuation; water
+   *  0.0218 / mm) of one view at a misalignment,
    *  row 0 at the top, view.Columns() per row. Throws xp::Error when plastimatch fails. */
   std::vector<float> LineIntegrals(const XRayView& view, const Pose& misalignment) const;
 

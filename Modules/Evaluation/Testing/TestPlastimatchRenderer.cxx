@@ -16,8 +16,8 @@
 namespace
 {
 
-/** A 60 mm air cube (2 mm voxels) with a 2 mm bone bead at voxel (bead). */
-vtkSmartPointer<vtkImageData> BeadVolume(const Eigen::Vector3i& bead)
+/** A 60 mm cube (2 mm voxels) of `hu` with a 2 mm bone bead at voxel (bead). */
+vtkSmartPointer<vtkImageData> BeadVolume(const Eigen::Vector3i& bead, short hu0 = -1000)
 {
   auto ct = vtkSmartPointer<vtkImageData>::New();
   ct->SetDimensions(30, 31, 32);
@@ -25,7 +25,7 @@ vtkSmartPointer<vtkImageData> BeadVolume(const Eigen::Vector3i& bead)
   ct->SetOrigin(-29.0, -30.0, -31.0);
   ct->AllocateScalars(VTK_SHORT, 1);
   short* hu = static_cast<short*>(ct->GetScalarPointer());
-  std::fill(hu, hu + 30 * 31 * 32, static_cast<short>(-1000));
+  std::fill(hu, hu + 30 * 31 * 32, hu0);
   hu[(bead[2] * 31 + bead[1]) * 30 + bead[0]] = 3000;
   return ct;
 }
@@ -63,6 +63,24 @@ TEST(PlastimatchRenderer, ABeadProjectsWhereTheGeometrySays)
     EXPECT_LE((found - expected).cwiseAbs().maxCoeff(), 1.0) << "view " << view.name << ": bead at " << found.transpose()
                                                               << ", the geometry projects it to " << expected.transpose();
   }
+}
+
+TEST(PlastimatchRenderer, LineIntegralsAreMuTimesMillimetres)
+{
+  if (!xp::PlastimatchRenderer::Available())
+    GTEST_SKIP() << "plastimatch is not installed (apt-get install plastimatch)";
+  // Water, 60 mm along the central ray of a view at gantry 0 (source above): mu 0.0218 / mm.
+  vtkSmartPointer<vtkImageData> ct = BeadVolume(Eigen::Vector3i(0, 0, 0), 0);
+  const xp::PatientSetup patient{ xp::PatientPosition::HFS, std::nullopt, Eigen::Vector3d::Zero() };
+  xp::PlastimatchRenderer renderer(ct, patient.PlannedCTToRoom(xp::ImageCenter(ct)), patient.roomIsocenter);
+  xp::XRayView view;
+  view.source = { 0, 0, 1000 };
+  view.detectorCenter = { 0, 0, -500 };
+  view.size = { 9, 7 };
+  const std::vector<float> integrals = renderer.LineIntegrals(view, xp::Pose{});
+  // 31 voxels of 2 mm along Room z (CT y): 60 to 62 mm, as the end voxels count.
+  EXPECT_NEAR(integrals[3 * 9 + 4] / 61.0, 0.0218, 0.0006);
+  // Without the factor of 10 it would be 0.0022.
 }
 
 TEST(Detector, FormatsKeepTheirRangeAndPolarity)
