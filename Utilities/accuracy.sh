@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Accuracy of approach B on X-rays that xpose's DRR model did not make (the clinical scenario of
-# the physics simulator): the acceptance runs and the ablation table of Documentation/results.md.
-# Usage: bash Utilities/accuracy.sh [acceptance|ablation|all] [TRIALS_PER_ABLATION_ROW]
-# Needs build/bin/xpose and ../shared/data/ct/vhm-pelvis; writes under eval/ (ignored by git).
+# the physics simulator): the acceptance runs and the ablation table of Documentation/results.md;
+# and the generalisation matrix (renderer x detector format x CT, wrong patients, near anatomy).
+# Usage: bash Utilities/accuracy.sh [acceptance|ablation|all|matrix] [TRIALS_PER_ROW_OR_CELL]
+# Needs build/bin/xpose, ../shared/data/ct/ (and plastimatch for the matrix); writes under eval/
+# (ignored by git).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
@@ -33,6 +35,57 @@ header() {
   echo "| run | trials | success | median mTRE (mm) | median signed error tx ty tz (mm) | pitch roll yaw (deg) | ok beyond 2 mm | largest ok mTRE (mm) | median time (s) |"
   echo "|---|---|---|---|---|---|---|---|---|"
 }
+
+# One cell of the matrix: evaluate, then one row from its trials.csv. A cell whose X-rays show
+# another anatomy (--xray-ct, --xray-stretch) counts its `ok`: each is a wrong answer.
+cell() { # NAME TRIALS ARGS...
+  local name=$1 trials=$2
+  shift 2
+  local dir=eval/matrix-$name
+  rm -rf "$dir"
+  "$xpose" evaluate --geometry "$geometry" --approaches B --trials "$trials" --min-translation 1 --max-translation 20 \
+    --max-rotation 5 --size 512x384 --seed 11 "$@" --out-dir "$dir" > "$dir.log" 2>&1 || { echo "| $name | evaluate failed: see $dir.log |"; return; }
+  local wrong=0
+  case " $* " in *" --xray-ct "*|*" --xray-stretch "*) wrong=1 ;; esac
+  awk -F, -v name="$name" -v wrong="$wrong" '
+    function median(a, n,   i, j, t) { for (i = 2; i <= n; i++) for (j = i; j > 1 && a[j-1] > a[j]; j--) { t = a[j]; a[j] = a[j-1]; a[j-1] = t }
+      return n == 0 ? "-" : (n % 2 ? a[(n+1)/2] : (a[n/2] + a[n/2+1]) / 2) }
+    NR > 1 { n++; time[n] = $24
+      if (wrong) { if ($12 == "ok") oks++; next }
+      if ($12 == "ok") { m++; mtre[m] = $19; ex[m] = $13; ey[m] = $14; ez[m] = $15; if ($19 >= 2) far++ }
+      if ($12 == "ok" && $19 < 2) succ++
+      if ($12 != "ok" && $19 < 1) falsefail++ }
+    END { if (wrong) { printf "| %s | %d | - | - | - | - | - | %d | %.1f |\n", name, n, oks, median(time, n); exit }
+      printf "| %s | %d | %d/%d | %s | %s %s %s | %d | %d | - | %.1f |\n", name, n, succ, n, (m ? sprintf("%.3f", median(mtre, m)) : "-"),
+        (m ? sprintf("%+.2f", median(ex, m)) : "-"), (m ? sprintf("%+.2f", median(ey, m)) : "-"), (m ? sprintf("%+.2f", median(ez, m)) : "-"),
+        far, falsefail, median(time, n) }' "$dir/trials.csv"
+}
+
+if [ "$what" = matrix ]; then
+  [ -d eval/phantom-ct-2mm ] || "$xpose" phantom --out eval/phantom-ct-2mm --spacing 2 > /dev/null
+  thorax=../shared/data/ct/thorax-crop/ct.nii.gz
+  n=${2:-10}
+  echo "| cell | trials | success (ok, mTRE < 2 mm) | median mTRE of ok (mm) | median signed error of ok tx ty tz (mm) | ok beyond 2 mm | false failed (mTRE < 1 mm) | wrong-anatomy ok | median time (s) |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+  for ct in pelvis:$pelvis thorax:$thorax phantom:eval/phantom-ct-2mm; do
+    for renderer in plastimatch clinical; do
+      for format in linear12 linear16 log processed; do
+        cell "${ct%%:*}-$renderer-$format" "$n" --ct "${ct#*:}" --scenario "$renderer" --detector "$format" --dose 20000
+      done
+      cell "${ct%%:*}-$renderer-log-5000" "$n" --ct "${ct#*:}" --scenario "$renderer" --detector log --dose 5000
+    done
+  done
+  # Another patient, and the same patient 10 % narrower, deeper or longer: none may end ok.
+  cell wrong-pelvis-ct-thorax-xrays "$n" --ct "$pelvis" --xray-ct "$thorax" --scenario plastimatch --detector linear16
+  cell wrong-thorax-ct-pelvis-xrays "$n" --ct "$thorax" --xray-ct "$pelvis" --scenario plastimatch --detector log
+  cell wrong-phantom-ct-pelvis-xrays "$n" --ct eval/phantom-ct-2mm --xray-ct "$pelvis" --scenario plastimatch --detector linear12
+  for axis in 0 1 2; do
+    for factor in 0.9 1.1; do
+      cell "near-pelvis-axis$axis-x$factor" "$n" --ct "$pelvis" --xray-stretch "$axis,$factor" --scenario plastimatch --detector linear16
+    done
+  done
+  exit 0
+fi
 
 if [ "$what" = acceptance ] || [ "$what" = all ]; then
   [ -d eval/phantom-ct-2mm ] || "$xpose" phantom --out eval/phantom-ct-2mm --spacing 2 > /dev/null

@@ -34,6 +34,13 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
     "Gate: two searches ending farther apart (and as good) fail the result; 0: one search")->capture_default_str();
   command->add_option("--max-search-apart-deg", settings.maxSearchDisagreementDegrees, "Gate: and degrees")
     ->capture_default_str();
+  command->add_option("--min-peak-margin", settings.minPeakMargin,
+    "Gate: least relative lead of the result over poses 3 mm / 1.5 degrees away, on whole images without masks")
+    ->capture_default_str();
+  command->add_option("--max-uncertainty-mm", settings.maxUncertaintyMM,
+    "Gate: largest uncertainty of each translation (mm): where the similarity falls by 5 % of its peak")->capture_default_str();
+  command->add_option("--max-uncertainty-deg", settings.maxUncertaintyDegrees, "Gate: and of each rotation (degrees)")
+    ->capture_default_str();
 }
 
 CLI::App* AddPhantomCommand(CLI::App& app, xp::PhantomOptions& options)

@@ -1,5 +1,7 @@
 #include "xpCommands.h"
 
+#include "xpImageLevels.h"
+
 #include "vtkXPEntropyMaskFilter.h"
 #include "xpError.h"
 #include "xpDICOMXRay.h"
@@ -27,6 +29,15 @@ int RunMask(const MaskOptions& options)
   {
     roi = ReadMaskPNG(options.roi, dims[0], dims[1]);
   }
+  // The registration's own view of the X-ray: its ranks over the ROI (any bit depth, any grey-level
+  // mapping gives the same mask).
+  const size_t count = static_cast<size_t>(dims[0]) * dims[1];
+  const auto* values = static_cast<const uint16_t*>(xray->GetScalarPointer());
+  std::vector<uint8_t> allowed;
+  if (roi)
+    allowed.assign(static_cast<const uint8_t*>(roi->GetScalarPointer()), static_cast<const uint8_t*>(roi->GetScalarPointer()) + count);
+  const std::vector<uint16_t> levels = EqualizedLevels(std::vector<uint16_t>(values, values + count), allowed);
+  std::copy(levels.begin(), levels.end(), static_cast<uint16_t*>(xray->GetScalarPointer()));
   vtkNew<vtkXPEntropyMaskFilter> filter;
   filter->SetInputData(0, xray);
   filter->SetInputData(1, roi);

@@ -59,6 +59,9 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
       r.endFaceExcessMax = std::max(r.endFaceExcessMax, faces.excess[f]);
       r.endFacesLeftOut += (faces.facesToLeaveOut >> f) & 1;
     }
+  r.peakMargin = result.peakMargin;
+  r.uncertaintyMM = std::max({ result.uncertainty[0], result.uncertainty[1], result.uncertainty[2] });
+  r.uncertaintyDegrees = std::max({ result.uncertainty[3], result.uncertainty[4], result.uncertainty[5] });
   for (const std::string& reason : result.Reasons())
     r.reasons += (r.reasons.empty() ? "" : "; ") + reason;
   return r;

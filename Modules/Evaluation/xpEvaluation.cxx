@@ -118,7 +118,8 @@ std::string TrialCSVHeader()
   for (const char* axis : AxisNames)
     header += std::string(",error_") + axis;
   return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
-                  "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,reasons";
+                  "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
+                  "uncertainty_mm,uncertainty_deg,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -137,7 +138,8 @@ std::string TrialCSVRow(const TrialRecord& r)
   row << ',' << r.mtre << ',' << (r.success ? 1 : 0) << ',' << r.prealignSeconds << ',' << r.maskSeconds << ','
       << r.fineSeconds << ',' << r.totalSeconds << ',' << r.drrCount << ',' << r.evaluations << ',' << r.explained << ','
       << r.residualMM << ',' << r.uncovered << ',' << r.searchApartMM << ',' << r.searchApartDegrees << ','
-      << r.validPixels << ',' << r.endFaceExcessMin << ',' << r.endFaceExcessMax << ',' << r.endFacesLeftOut << ',' << reasons;
+      << r.validPixels << ',' << r.endFaceExcessMin << ',' << r.endFaceExcessMax << ',' << r.endFacesLeftOut << ','
+      << r.peakMargin << ',' << r.uncertaintyMM << ',' << r.uncertaintyDegrees << ',' << reasons;
   return row.str();
 }
 
@@ -200,6 +202,8 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       r.endFaceExcessMin = std::stod(f[i++]);
       r.endFaceExcessMax = std::stod(f[i++]);
       r.endFacesLeftOut = std::stoi(f[i++]);
+      for (double* v : { &r.peakMargin, &r.uncertaintyMM, &r.uncertaintyDegrees })
+        *v = std::stod(f[i++]);
       r.reasons = f[i++];
       records.push_back(r);
     }

@@ -39,6 +39,9 @@ struct TrialRecord
   long long validPixels = 0;
   double endFaceExcessMin = 0.0, endFaceExcessMax = 0.0;
   int endFacesLeftOut = 0;
+  /** The landscape at the result: the least lead of the result over its held-out neighbours, and the largest per-axis
+   *  uncertainty in mm and in degrees (inf: no maximum along some axis). */
+  double peakMargin = 0.0, uncertaintyMM = 0.0, uncertaintyDegrees = 0.0;
   std::string reasons;               ///< the gate's reasons, ';'-separated
 };
 

@@ -113,14 +113,13 @@ vtkSmartPointer<vtkImageData> ReadXRayDICOM(const std::string& path)
   out->SetDimensions(static_cast<int>(dims[0]), static_cast<int>(dims[1]), 1);
   out->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
   auto* p = static_cast<uint16_t*>(out->GetScalarPointer());
-  const double scale = top > 4095.0 ? 4095.0 / top : 1.0;
   for (unsigned row = 0; row < dims[1]; ++row) // DICOM row 0 first -> VTK rows run up
   {
     for (unsigned column = 0; column < dims[0]; ++column)
     {
       double v = std::min(values[static_cast<size_t>(row) * dims[0] + column], top);
       v = inverted ? top - v : v;
-      p[static_cast<size_t>(dims[1] - 1 - row) * dims[0] + column] = static_cast<uint16_t>(std::min(4095.0, v * scale + 0.5));
+      p[static_cast<size_t>(dims[1] - 1 - row) * dims[0] + column] = static_cast<uint16_t>(v + 0.5);
     }
   }
   return out;

@@ -1,6 +1,6 @@
 /**
  * @file xpDICOMXRay.h
- * @brief Reads a projection X-ray stored as DICOM (DX, CR or RT Image) as a 12-bit image.
+ * @brief Reads a projection X-ray stored as DICOM (DX, CR or RT Image) with its stored values (up to 16 bits; MONOCHROME1 inverted so that the open field is bright).
  *
  * Pixel data through GDCM (compressed syntaxes included). MONOCHROME1 (bright = attenuating) is
  * inverted so that, as in xpose's DRRs, bone is dark. Values are scaled from Bits Stored to 12
@@ -20,10 +20,11 @@ class vtkImageData;
 namespace xp
 {
 
-/** The X-ray as unsigned short 0..4095 in VTK row order; throws xp::InputError naming the file. */
+/** The X-ray as unsigned short, its stored values (up to 16 bits), in VTK row order; throws
+ *  xp::InputError naming the file. */
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayDICOM(const std::string& path);
 
-/** A 12-bit X-ray from a 16-bit PNG or a DICOM DX/CR/RT Image file, chosen by content. */
+/** An X-ray from a grey PNG or a DICOM DX/CR/RT Image file, chosen by content, values as stored. */
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayImage(const std::string& path);
 
 } // namespace xp

@@ -4,6 +4,8 @@
 #include "xpPNG.h"
 #include "xpXRayView.h"
 
+#include <png.h>
+
 #include <Eigen/Geometry>
 #include <vtkImageData.h>
 #include <vtkNew.h>
@@ -81,25 +83,21 @@ vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, 
 vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path)
 {
   const DecodedPNG png = DecodePNG(path);
-  if (!png.IsGrey16())
+  // Any grey depth is an X-ray: a panel's raw 14-16 bits, xpose's 12, a processed 8. Their
+  // values are kept as they are; the registration ranks them (xpStereoRegistration.h).
+  if (png.colorType != PNG_COLOR_TYPE_GRAY || png.channels != 1)
   {
-    throw InputError(path, "expected a 16-bit grey PNG holding 12-bit values (0..4095), found " +
-        std::to_string(png.bitDepth) + "-bit with " + std::to_string(png.channels) + " channel(s)");
+    throw InputError(path, "expected a grey PNG X-ray (8 or 16 bits, one channel), found " + std::to_string(png.bitDepth) +
+        "-bit with " + std::to_string(png.channels) + " channel(s)");
   }
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetDimensions(png.columns, png.rows, 1);
   image->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
   uint16_t* out = static_cast<uint16_t*>(image->GetScalarPointer());
-  uint16_t brightest = 0;
   for (int row = 0; row < png.rows; ++row) // PNG row 0 (detector row 0) -> VTK row rows-1
   {
     const uint16_t* in = png.samples.data() + static_cast<size_t>(row) * png.columns;
     std::copy(in, in + png.columns, out + static_cast<size_t>(png.rows - 1 - row) * png.columns);
-    brightest = std::max(brightest, *std::max_element(in, in + png.columns));
-  }
-  if (brightest > 4095)
-  {
-    throw InputError(path, "pixel values up to " + std::to_string(brightest) + ": not a 12-bit image (0..4095)");
   }
   return image;
 }

@@ -39,9 +39,9 @@ VTKXPIO_EXPORT void WriteDetectorMetaImage(vtkImageData* image, const XRayView& 
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows);
 
 /**
- * Reads a 12-bit X-ray stored as a 16-bit grey PNG (values 0..4095), in VTK row order. Throws
- * xp::InputError naming the file when it is unreadable, not 16-bit grey, or holds values above
- * 4095 (not a 12-bit image).
+ * Reads an X-ray stored as a grey PNG of any bit depth (8-bit processed, 12-bit in 16, a panel's
+ * raw 16), values as stored, in VTK row order. Throws xp::InputError naming the file when it is
+ * unreadable or not grey with one channel.
  */
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path);
 

@@ -204,7 +204,7 @@ void vtkXPStereoRegistrationFilter::CheckXRay(vtkImageData* xray, const xp::XRay
   }
   if (xray->GetScalarType() != VTK_UNSIGNED_SHORT || xray->GetNumberOfScalarComponents() != 1)
   {
-    throw xp::InputError(what, "must hold one unsigned 16-bit (12-bit valued) sample per pixel");
+    throw xp::InputError(what, "must hold one unsigned 16-bit sample per pixel (any bit depth up to 16)");
   }
 }
 
@@ -238,9 +238,6 @@ std::vector<xp::RegistrationView> vtkXPStereoRegistrationFilter::PrepareViews(co
     xp::RegistrationView item;
     item.view = panel.Resampled(panel.Columns() / f, panel.Rows() / f);
     item.xray = xp::RowsTopFirst<uint16_t>(xray);
-    for (uint16_t value : item.xray)
-      if (value > 4095)
-        throw xp::InputError(what, "holds " + std::to_string(value) + ": X-rays are 12-bit (0-4095)");
     for (size_t earlier = 0; earlier < full.size(); ++earlier)
     {
       if (full[earlier] == item.xray)

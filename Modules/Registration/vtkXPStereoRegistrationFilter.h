@@ -6,7 +6,7 @@
  *
  * Input port 0: the CT (HU; origin/spacing/DirectionMatrix in LPS).
  * Input port 1 (repeatable): one X-ray per view of the geometry, in its order (unsigned short,
- * 12-bit, VTK row order, the panel's full size).
+ * any bit depth up to 16, VTK row order, the panel's full size).
  * Input port 2 (optional, repeatable): none, or one ROI per view (unsigned char, non-zero = use).
  *
  * With a shrink factor f, the X-rays and ROIs are box-averaged by f and registered on panels of
@@ -101,11 +101,11 @@ public:
   /** During EvaluationEvent: the similarity just evaluated. */
   vtkGetMacro(LastObjective, double);
 
-  /** Throws xp::InputError, naming `what`, unless `xray` is a 12-bit single-sample image of
+  /** Throws xp::InputError, naming `what`, unless `xray` is an unsigned 16-bit single-sample image of
    *  the panel's size: the check every X-ray gets, here and in the commands that read files. */
   static void CheckXRay(vtkImageData* xray, const xp::XRayView& panel, const std::string& what);
 
-  /** The views a registration runs on: each X-ray checked (CheckXRay, 12-bit, distinct from the
+  /** The views a registration runs on: each X-ray checked (CheckXRay, distinct from the
    *  others), ROIs binarised, both box-averaged by `shrinkFactor` onto panels resampled to
    *  match. `rois` is empty or one per X-ray. Throws xp::InputError naming the input: by its
    *  entry in `names` (a file, say) where given, else by its port and imager. */

@@ -43,6 +43,10 @@ const char* GateCodeName(GateCode code)
       return "uncovered_anatomy";
     case GateCode::ViewDisagrees:
       return "view_disagrees";
+    case GateCode::NotDistinct:
+      return "not_distinct";
+    case GateCode::Uncertain:
+      return "uncertain";
   }
   return "unknown";
 }
@@ -60,7 +64,10 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
   for (const auto& [limit, name] : { std::make_pair(settings.maxTranslation, "maxTranslation"),
          std::make_pair(settings.maxRotation, "maxRotation"), std::make_pair(settings.maxViewResidual, "maxViewResidual"),
          std::make_pair(settings.maxViewResidualDegrees, "maxViewResidualDegrees"),
-         std::make_pair(settings.maxUncovered, "maxUncovered") })
+         std::make_pair(settings.maxUncovered, "maxUncovered"), std::make_pair(settings.maxUncertaintyMM, "maxUncertaintyMM"),
+         std::make_pair(settings.maxUncertaintyDegrees, "maxUncertaintyDegrees"),
+         std::make_pair(settings.landscapeNearMM, "landscapeNearMM"), std::make_pair(settings.landscapeNearDegrees, "landscapeNearDegrees"),
+         std::make_pair(settings.landscapeCheckMM, "landscapeCheckMM"), std::make_pair(settings.landscapeCheckDegrees, "landscapeCheckDegrees") })
   {
     if (!(limit > 0.0 && std::isfinite(limit)))
     {
@@ -75,6 +82,10 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
   if (!(settings.minValidPixelsPerCell >= 0.0 && settings.minValidPixelsPerCell <= 1000.0))
   {
     throw InputError("registration settings: minValidPixelsPerCell", "must be between 0 and 1000");
+  }
+  if (!(settings.minPeakMargin >= -1.0 && settings.minPeakMargin <= 1.0))
+  {
+    throw InputError("registration settings: minPeakMargin", "must be between -1 and 1");
   }
   if (!(settings.minExplained >= 0.0 && settings.minExplained <= 1.0))
   {
@@ -101,6 +112,26 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
       Format("two searches, from the pre-alignment and 1.5 mm / 1.5 degrees beside it, ended %.2f mm and %.2f degrees "
              "apart at full resolution: the images do not fix the pose",
         evidence.searchApartMM, evidence.searchApartDegrees) });
+  // A similarity the optimiser never saw must peak at the result too: another patient's X-rays
+  // and anatomy no pose fits give a result that only the optimised, masked objective favours.
+  if (!(evidence.peakMargin > settings.minPeakMargin))
+    failures.push_back({ GateCode::NotDistinct, -1,
+      Format("a similarity the optimiser did not use (whole images, no masks) scores a pose 3 mm or 1.5 degrees away "
+             "%.1f %% higher than the result: the images do not single out this pose",
+        -100.0 * evidence.peakMargin) });
+  static const char* axes[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };
+  for (int a = 0; a < 6; ++a)
+  {
+    const double limit = a < 3 ? settings.maxUncertaintyMM : settings.maxUncertaintyDegrees;
+    if (evidence.uncertainty[a] <= limit)
+      continue;
+    const std::string unit = a < 3 ? " mm" : " degrees";
+    failures.push_back({ GateCode::Uncertain, -1,
+      std::isfinite(evidence.uncertainty[a])
+        ? std::string("along ") + axes[a] + Format(" the result is uncertain by %.2f", evidence.uncertainty[a]) + unit +
+            Format(" (> %.2f", limit) + unit + "): the similarity is too flat there to fix the pose"
+        : std::string("along ") + axes[a] + " the result is no maximum of the similarity: a pose beside it fits better" });
+  }
   for (size_t v = 0; v < evidence.views.size(); ++v)
   {
     const ViewEvidence& view = evidence.views[v];

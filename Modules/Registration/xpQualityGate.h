@@ -16,6 +16,7 @@
 
 #include "xpPose.h"
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -33,7 +34,9 @@ enum class GateCode
   TooFewPixels,        ///< a view's masks leave too few pixels for its MI to mean anything
   LowExplained,        ///< a view's final DRR explains too little of its X-ray
   UncoveredAnatomy,    ///< a view shows anatomy where the CT has none at the result
-  ViewDisagrees        ///< a view's own 2D registration still wants to move
+  ViewDisagrees,       ///< a view's own 2D registration still wants to move
+  NotDistinct,         ///< a similarity the optimiser did not use scores a neighbouring pose higher
+  Uncertain            ///< along some axis the objective is too flat (or no maximum) at the result
 };
 
 /** Stable lower-case name of a code, as result.json writes it ("low_explained", ...). */
@@ -70,6 +73,8 @@ struct GateEvidence
   bool ambiguous = false;
   double searchApartMM = 0.0, searchApartDegrees = 0.0;
   std::vector<ViewEvidence> views;
+  std::array<double, 6> uncertainty{}; ///< per axis: mm, mm, mm, degrees, degrees, degrees
+  double peakMargin = 0.0;             ///< the result's least lead over held-out neighbours
 };
 
 /** The failures, in a fixed order (whole result, then each view); empty = ok. */

@@ -5,6 +5,7 @@
 
 #include <vtk_jsoncpp.h>
 
+#include <cmath>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -147,7 +148,7 @@ GateCode CodeNamed(const std::string& name, const Fields& fields)
 {
   for (GateCode code : { GateCode::InvalidInput, GateCode::NotConverged, GateCode::TranslationTooLarge,
          GateCode::RotationTooLarge, GateCode::AmbiguousPose, GateCode::TooFewPixels, GateCode::LowExplained, GateCode::UncoveredAnatomy,
-         GateCode::ViewDisagrees })
+         GateCode::ViewDisagrees, GateCode::NotDistinct, GateCode::Uncertain })
   {
     if (name == GateCodeName(code))
       return code;
@@ -185,6 +186,8 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.searchApartMM = result.searchDisagreementMM;
   record.searchApartDegrees = result.searchDisagreementDegrees;
   record.searchObjectiveRatio = result.searchObjectiveRatio;
+  record.uncertainty = result.uncertainty;
+  record.peakMargin = result.peakMargin;
   record.stages = result.stages;
   record.objectiveTrace = result.objectiveTrace;
   return record;
@@ -223,6 +226,12 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   root["search_disagreement"]["mm"] = r.searchApartMM;
   root["search_disagreement"]["degrees"] = r.searchApartDegrees;
   root["search_disagreement"]["objective_ratio"] = r.searchObjectiveRatio;
+  // Per axis: the distance over which the similarity falls by 5 % of its value at the result
+  // (null: no maximum along that axis); and the result's least lead over its held-out neighbours.
+  static const char* axes[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
+  for (int a = 0; a < 6; ++a)
+    root["uncertainty"][axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
+  root["peak_margin"] = r.peakMargin;
   root["reasons"] = List(r.Reasons());
   Json::Value& failures = root["failures"] = Json::Value(Json::arrayValue);
   for (const GateFailure& failure : r.failures)

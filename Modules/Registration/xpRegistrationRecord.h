@@ -15,6 +15,7 @@
 #include "xpStereoRegistration.h"
 
 #include <optional>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,8 @@ struct RegistrationRecord
   int evaluations = 0;
   double readSeconds = 0.0, prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
   double searchApartMM = 0.0, searchApartDegrees = 0.0, searchObjectiveRatio = 1.0;
+  std::array<double, 6> uncertainty{}; ///< per axis (mm, degrees); written, not read back
+  double peakMargin = 0.0;
   std::vector<RegistrationStage> stages;
   std::vector<double> objectiveTrace;
   std::optional<RegistrationRecordInputs> inputs; ///< absent when no command wrote the record

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace xp
 {
@@ -178,9 +179,11 @@ private:
 };
 
 /** Step 2a: which of the CT's end faces each view sees anatomy beyond, at the pre-alignment, on
- *  the pre-alignment's images (their DRRs show the CT's ends as sharply as the full ones). */
-std::vector<EndFaceEvidence> MeasureEndFaces(StereoSimilarity& similarity, const Pose& pose, const CTCoverage& coverage,
-  const Eigen::Isometry3d& ctToRoom, double minExcess)
+ *  the pre-alignment's images (their DRRs show the CT's ends as sharply as the full ones). The
+ *  excess is a fraction of the X-ray's own range (`xrays`, as they came, at the similarity's
+ *  size): ranks would stretch a thin body's faint attenuation into a large share of the range. */
+std::vector<EndFaceEvidence> MeasureEndFaces(StereoSimilarity& similarity, const std::vector<std::vector<uint16_t>>& xrays,
+  const Pose& pose, const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom, double minExcess)
 {
   similarity.Evaluate(pose);
   std::vector<EndFaceEvidence> faces;
@@ -188,7 +191,7 @@ std::vector<EndFaceEvidence> MeasureEndFaces(StereoSimilarity& similarity, const
   {
     const RegistrationView& item = similarity.Views()[v];
     faces.push_back(MeasureAnatomyBeyondEndFaces(
-      item.xray, similarity.LastDRR(v), item.mask, coverage.EndFaces(ctToRoom, item.view), minExcess));
+      xrays[v], similarity.LastDRR(v), item.mask, coverage.EndFaces(ctToRoom, item.view), minExcess));
   }
   return faces;
 }
@@ -303,7 +306,47 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, const Pose& 
   return { first.pose };
 }
 
-/** Step 4a: what each view says about the result: the information its final DRR explains, the
+/**
+ * Step 4a: the landscape around the result. Per axis, the refinement's objective at poses
+ * `landscapeNear` either side gives its curvature c = (2 f0 - f+ - f-) / h^2, and the uncertainty
+ * is the distance over which a parabola of that curvature falls by 5 % of f0: sqrt(0.1 f0 / c);
+ * infinite where a neighbour scores higher (no maximum). Then a check the optimiser never saw:
+ * `heldOut` (the whole ROI, no entropy or coverage mask, no high-pass, half size) at the result
+ * and at poses `landscapeCheck` either side along each axis. The right anatomy peaks at the
+ * right pose under any reasonable similarity; a pose that only the optimised, masked objective
+ * favours (another patient's X-rays, an anatomy no pose fits) is beaten by a neighbour there.
+ * The peak margin is the least relative lead of the result over those neighbours.
+ */
+void MeasureLandscape(const std::function<double(const Pose&)>& objective, StereoSimilarity& heldOut, const Pose& result,
+  double atResult, const StereoRegistrationSettings& settings, StereoRegistrationResult& out)
+{
+  const std::array<double, 6> center = result.Parameters();
+  const auto moved = [&](int axis, double step)
+  {
+    std::array<double, 6> p = center;
+    p[axis] += step;
+    return Pose::FromParameters(p.data());
+  };
+  for (int a = 0; a < 6; ++a)
+  {
+    const double h = a < 3 ? settings.landscapeNearMM : settings.landscapeNearDegrees;
+    const double below = objective(moved(a, -h)), above = objective(moved(a, h));
+    const double curvature = (2.0 * atResult - below - above) / (h * h);
+    const bool peak = atResult >= below && atResult >= above && curvature > 0.0 && atResult > 0.0;
+    out.uncertainty[a] = peak ? std::sqrt(0.1 * atResult / curvature) : std::numeric_limits<double>::infinity();
+  }
+  const double check = heldOut.Evaluate(result);
+  out.peakMargin = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 6; ++a)
+    for (double sign : { -1.0, 1.0 })
+    {
+      const double neighbour = heldOut.Evaluate(moved(a, sign * (a < 3 ? settings.landscapeCheckMM : settings.landscapeCheckDegrees)));
+      out.peakMargin = std::min(out.peakMargin, check > 0.0 ? (check - neighbour) / check : -1.0);
+    }
+  out.drrCount += heldOut.RenderedDRRs();
+}
+
+/** Step 4b: what each view says about the result: the information its final DRR explains, the
  *  anatomy the CT leaves uncovered, and how far its own 2D registration would still move. */
 ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const Eigen::Vector3d& isocenter,
   const StereoRegistrationSettings& settings, JointHistogram& histogram)
@@ -326,6 +369,53 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const Eigen::Vector3d
   return evidence;
 }
 
+/**
+ * Step 0: each X-ray as the registration sees it: its ranks over the ROI, 0..4095, with the open
+ * field bright. Any monotone grey-level mapping (raw 12 or 16 bits, log, windowed, gamma) gives
+ * the same image up to ties, so no later step, mask or gate limit depends on how the panel or a
+ * workstation encoded it. The polarity is read from the images themselves: the X-ray's ranks
+ * correlate with the DRR at the start pose positively when bright means transmission (raw) and
+ * negatively when bright means attenuation (log, "for presentation"); the body's thickness
+ * decides that correlation, which a start some centimetres off does not reverse.
+ */
+std::vector<RegistrationView> RankedXRays(const std::vector<RegistrationView>& views, const AttenuationVolume& volume,
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, bool pyramid, StereoRegistrationResult& result)
+{
+  std::vector<RegistrationView> ranked = views;
+  for (RegistrationView& item : ranked)
+    item.xray = EqualizedLevels(item.xray, item.mask);
+  std::vector<RegistrationView> probeViews;
+  for (const RegistrationView& item : ranked)
+    probeViews.push_back(pyramid ? Half(item) : item);
+  StereoSimilarity probe(volume, plannedCTToRoom, isocenter, probeViews, 32, { false, 0.0 });
+  probe.Evaluate(Pose{});
+  result.drrCount += probe.RenderedDRRs();
+  for (size_t v = 0; v < ranked.size(); ++v)
+  {
+    const std::vector<uint16_t>& xray = probe.Views()[v].xray;
+    const std::vector<uint16_t>& drr = probe.LastDRR(v);
+    const std::vector<uint8_t>& mask = probe.Views()[v].mask;
+    double n = 0, sx = 0, sy = 0, sxy = 0, sxx = 0, syy = 0;
+    for (size_t i = 0; i < xray.size(); ++i)
+    {
+      if (!mask.empty() && !mask[i])
+        continue;
+      const double x = xray[i], y = drr[i];
+      n += 1, sx += x, sy += y, sxy += x * y, sxx += x * x, syy += y * y;
+    }
+    n = std::max(n, 1.0);
+    const double covariance = sxy - sx * sy / n;
+    const double spread = std::sqrt(std::max(0.0, (sxx - sx * sx / n) * (syy - sy * sy / n)));
+    const double correlation = spread > 0.0 ? covariance / spread : 0.0;
+    result.xrayCorrelation.push_back(correlation);
+    result.xrayInverted.push_back(correlation < 0.0);
+    if (correlation < 0.0)
+      for (uint16_t& level : ranked[v].xray)
+        level = static_cast<uint16_t>(RankLevels - 1 - level);
+  }
+  return ranked;
+}
+
 } // namespace
 
 std::vector<std::string> StereoRegistrationResult::Reasons() const
@@ -334,17 +424,17 @@ std::vector<std::string> StereoRegistrationResult::Reasons() const
 }
 
 StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings,
+  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& inputViews, const StereoRegistrationSettings& settings,
   const RegistrationObserver& observer)
 {
-  if (views.size() < 2)
+  if (inputViews.size() < 2)
   {
     throw InputError("registration", "a stereo registration needs at least two views");
   }
   ValidateGateLimits(settings);
   StereoRegistrationResult result;
   ProgressReporter progress(observer);
-  const bool pyramid = settings.pyramid && views[0].view.Columns() >= 256 && views[0].view.Rows() >= 192;
+  const bool pyramid = settings.pyramid && inputViews[0].view.Columns() >= 256 && inputViews[0].view.Rows() >= 192;
 
   // 1. Pre-alignment (5+1 DOF) with the user ROIs only. Half-size images are rendered from a
   // half-resolution CT where its voxels stay fine enough: their pixels are twice as wide, and a
@@ -354,6 +444,9 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const bool halveCT = pyramid && 2.0 * volume.MaximumSpacing() <= settings.maxHalvedVoxelMM;
   const AttenuationVolume halfVolume = halveCT ? volume.Halved() : AttenuationVolume();
   const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
+  const std::vector<RegistrationView> views = settings.rankedXRays
+    ? RankedXRays(inputViews, coarseVolume, plannedCTToRoom, isocenter, pyramid, result)
+    : inputViews;
   std::vector<RegistrationView> coarseViews;
   for (const RegistrationView& item : views)
     coarseViews.push_back(pyramid ? Half(item) : item);
@@ -366,8 +459,13 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   start = Clock::now();
   const CTCoverage coverage(volume, settings.coverageMarginMM);
   if (settings.coverageMask)
-    result.endFaces = MeasureEndFaces(coarse, result.prealignment.pose, coverage,
+  {
+    std::vector<std::vector<uint16_t>> asTheyCame;
+    for (const RegistrationView& item : inputViews)
+      asTheyCame.push_back(pyramid ? Half(item).xray : item.xray);
+    result.endFaces = MeasureEndFaces(coarse, asTheyCame, result.prealignment.pose, coverage,
       MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), settings.coverageMinExcess);
+  }
   ValidityMasks masks = BuildValidityMasks(
     views, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
   std::vector<RegistrationView>& masked = masks.masked;
@@ -433,6 +531,23 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       std::swap(refined[0], refined[1]);
   }
   const PoseOptimizerResult& fineResult = refined.front();
+  BeginStage(result, "landscape", stageStart);
+  progress.Begin("landscape", 0.9, 0.95);
+  {
+    std::vector<RegistrationView> wholeViews;
+    for (const RegistrationView& item : views)
+      wholeViews.push_back(pyramid ? Half(item) : item);
+    StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { settings.equalizedLevels, 0.0 });
+    const auto objective = [&](const Pose& p)
+    {
+      const double value = Traced(result, fine.Evaluate(p));
+      progress.Evaluated(value);
+      return value;
+    };
+    MeasureLandscape(objective, heldOut, fineResult.pose,
+      fineResult.value, settings, result);
+  }
+  result.stages.back().seconds = Since(stageStart);
   result.objective = fine.Evaluate(fineResult.pose);
   result.drrCount += fine.RenderedDRRs();
   result.converged = fineResult.converged;
@@ -448,6 +563,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   evidence.stopReason = fineResult.stopReason;
   evidence.searchApartMM = result.searchDisagreementMM;
   evidence.searchApartDegrees = result.searchDisagreementDegrees;
+  evidence.uncertainty = result.uncertainty;
+  evidence.peakMargin = result.peakMargin;
   JointHistogram histogram(settings.bins);
   for (size_t v = 0; v < masked.size(); ++v)
   {

@@ -14,6 +14,7 @@
 #include "xpQualityGate.h"
 #include "xpStereoSimilarity.h"
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -25,6 +26,9 @@ struct StereoRegistrationSettings
 {
   bool entropyMask = true;       ///< exclude low-information regions (METHOD.md step 3)
   bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
+  /** Register the X-rays' ranks with the open field bright (RankedXRays in the .cxx): every
+   *  later step sees the same image whatever the X-ray's bit depth and grey-level mapping. */
+  bool rankedXRays = true;
   /** The half-size stages render from a half-resolution CT only when its voxels stay within
    *  this (mm); coarser voxels blur the bone edges the coarse search follows. */
   double maxHalvedVoxelMM = 2.5;
@@ -51,7 +55,9 @@ struct StereoRegistrationSettings
   /** gate: each view must keep at least this many valid pixels per joint-histogram cell
    *  (bins x bins): 2 = 2048 pixels with 32 bins, 1 % of a 512x384 view. */
   double minValidPixelsPerCell = 2.0;
-  double minExplained = 0.15;    ///< gate: MI / H(X-ray) each view must reach at the result
+  /** gate: MI / H(X-ray) each view must reach at the result, on the ranked X-ray: 0.07-0.5 for
+   *  accurate results of linear and log X-rays, 0.04-0.05 for another patient's (Algorithms.md). */
+  double minExplained = 0.05;
   double maxViewResidual = 1.0;  ///< gate: mm (at the isocentre) a view's own 2D registration may still move
   double maxViewResidualDegrees = 1.0; ///< gate: and degrees it may still turn in its plane
   /** gate: largest fraction of a view's valid pixels that may show attenuation where the final
@@ -73,6 +79,17 @@ struct StereoRegistrationSettings
    *  better one's objective: two optima the images cannot tell apart. On the pelvis a stall on
    *  the roll/lateral valley ends a few percent lower (Algorithms.md). */
   double ambiguousObjectiveRatio = 0.99;
+  /** The landscape around the result (MeasureLandscape in the .cxx): the refinement's objective
+   *  `landscapeNear...` either side of the result along each axis gives the uncertainty; a
+   *  held-out similarity (whole ROI, no masks, half size) `landscapeCheck...` either side must
+   *  score below the result. */
+  double landscapeNearMM = 1.5, landscapeNearDegrees = 1.0;
+  double landscapeCheckMM = 3.0, landscapeCheckDegrees = 1.5;
+  /** gate: the result's least relative lead over those held-out neighbours. */
+  double minPeakMargin = 0.0;
+  /** gate: per-axis uncertainty (the distance over which the objective falls by 5 %). */
+  double maxUncertaintyMM = 3.0;
+  double maxUncertaintyDegrees = 1.5;
 };
 
 /** Where a stage of the 6-DOF search starts in the objective trace. */
@@ -97,6 +114,10 @@ struct StereoRegistrationResult
   std::vector<double> uncovered;         ///< per view: valid pixels showing anatomy where the CT has none
   std::vector<double> viewResidualMM;    ///< per view: its own 2D registration's remaining shift (mm at the isocentre)
   std::vector<double> validFraction;     ///< of each mask
+  /** Per view: correlation of the X-ray's ranks with the DRR at the start pose, and whether the
+   *  X-ray was taken as bright = attenuation (log, processed) and turned over for that. */
+  std::vector<double> xrayCorrelation;
+  std::vector<bool> xrayInverted;
   std::vector<EndFaceEvidence> endFaces; ///< per view: anatomy beyond the CT's ends, faces left out
   std::vector<std::vector<uint8_t>> masks;     ///< the masks used, in the DRR planes
   std::vector<std::vector<float>> entropyMaps; ///< empty without entropy masks
@@ -107,7 +128,11 @@ struct StereoRegistrationResult
   double searchDisagreementMM = 0.0;     ///< between the two searches' ends (refined, when both were)
   double searchDisagreementDegrees = 0.0;
   double searchObjectiveRatio = 1.0;     ///< the worse of those two ends' objectives over the better
-  std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
+  /** Per axis tx, ty, tz (mm), pitch, roll, yaw (degrees); infinite where the result is no
+   *  maximum along that axis. */
+  std::array<double, 6> uncertainty{};
+  double peakMargin = 0.0;               ///< least lead of the result over its held-out neighbours
+    std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
 };
@@ -123,7 +148,7 @@ struct RegistrationProgress
 using RegistrationObserver = std::function<void(const RegistrationProgress&)>;
 
 /**
- * Registers a CT to stereo X-rays. `views` carry the X-rays (12-bit, row 0 first) and, in
+ * Registers a CT to stereo X-rays. `views` carry the X-rays (any bit depth, row 0 first) and, in
  * `mask`, the user ROIs (empty = whole image). Misalignments act about `isocenter` after
  * `plannedCTToRoom`. `observer`, when set, hears of every evaluation. The steps: pre-alignment
  * (xpPreAlignment.h), validity masks (entropy, ROI, CT coverage), a coarse search from two starts,

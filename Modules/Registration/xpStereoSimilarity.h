@@ -31,7 +31,7 @@ namespace xp
 struct RegistrationView
 {
   XRayView view;                 ///< the panel as rendered (size = the images' size)
-  std::vector<uint16_t> xray;    ///< 12-bit, row 0 first
+  std::vector<uint16_t> xray;    ///< row 0 first; 12-bit levels inside the registration
   std::vector<uint8_t> mask;     ///< 1 = valid; empty = all valid
 };
 

@@ -245,9 +245,23 @@ TEST(Commands, MaskOfADRRWritesMaskAndEntropy)
   options.outputDirectory = "cmd-mask-empty";
   EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitBadInput);
   EXPECT_EQ(CountFiles("cmd-mask-empty"), 0);
-  // A DRR display PNG is 8-bit: not a 12-bit X-ray.
+  // An 8-bit grey PNG is an X-ray (a processed image) and gives the mask of its ranks; a colour
+  // PNG is not an X-ray.
   options.roi.clear();
   options.xray = "cmd-mask-drr/drr_A_display.png";
+  options.outputDirectory = "cmd-mask-8bit";
+  ASSERT_EQ(std::system("rm -rf cmd-mask-8bit"), 0);
+  EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitOk);
+  vtkNew<vtkImageData> colour;
+  colour->SetDimensions(128, 96, 1);
+  colour->AllocateScalars(VTK_UNSIGNED_CHAR, 3);
+  std::fill_n(static_cast<unsigned char*>(colour->GetScalarPointer()), 128 * 96 * 3, 100);
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetInputData(colour);
+  writer->SetFileName("cmd-roi/colour.png");
+  writer->Write();
+  options.xray = "cmd-roi/colour.png";
+  options.outputDirectory = "cmd-mask-colour";
   EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitBadInput);
 }
 

@@ -8,16 +8,16 @@
 
 using xp::testing::WriteDX;
 
-TEST(DICOMXRay, ReadsRowsInOrderScaledTo12Bits)
+TEST(DICOMXRay, ReadsRowsInOrderWithTheirStoredValues)
 {
   const std::string dir = xp::testing::FreshFolder("dicom-dx");
   WriteDX(dir + "/dx.dcm", "DX", false);
   vtkSmartPointer<vtkImageData> image = xp::ReadXRayImage(dir + "/dx.dcm");
   ASSERT_EQ(image->GetDimensions()[0], 40);
   const auto* p = static_cast<const uint16_t*>(image->GetScalarPointer());
-  // DICOM row 0 is VTK row 29; 14 bits are scaled to 12: (100 c + r) * 4095 / 16383.
-  EXPECT_EQ(p[29 * 40 + 10], static_cast<uint16_t>(1000 * 4095.0 / 16383.0 + 0.5));
-  EXPECT_EQ(p[0 * 40 + 10], static_cast<uint16_t>(1029 * 4095.0 / 16383.0 + 0.5));
+  // DICOM row 0 is VTK row 29; 14 stored bits are kept as they are: 100 c + r.
+  EXPECT_EQ(p[29 * 40 + 10], 1000);
+  EXPECT_EQ(p[0 * 40 + 10], 1029);
 }
 
 TEST(DICOMXRay, Monochrome1IsInvertedAndOtherModalitiesRefused)
@@ -26,7 +26,7 @@ TEST(DICOMXRay, Monochrome1IsInvertedAndOtherModalitiesRefused)
   WriteDX(dir + "/cr.dcm", "CR", true);
   vtkSmartPointer<vtkImageData> image = xp::ReadXRayImage(dir + "/cr.dcm");
   const auto* p = static_cast<const uint16_t*>(image->GetScalarPointer());
-  EXPECT_EQ(p[29 * 40 + 0], 4095) << "0 in MONOCHROME1 is full transmission";
+  EXPECT_EQ(p[29 * 40 + 0], 16383) << "0 in MONOCHROME1 (14 bits) is full transmission";
   WriteDX(dir + "/mr.dcm", "MR", false);
   EXPECT_THROW(xp::ReadXRayImage(dir + "/mr.dcm"), xp::InputError);
   EXPECT_THROW(xp::ReadXRayImage(dir + "/none.dcm"), xp::InputError);

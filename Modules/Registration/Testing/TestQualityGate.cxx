@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 namespace
 {
@@ -16,6 +17,8 @@ xp::GateEvidence GoodEvidence()
   xp::GateEvidence evidence;
   evidence.misalignment = xp::Pose::Parse("3,-2,1,1,-1,0.5", "pose");
   evidence.converged = true;
+  evidence.peakMargin = 0.1;
+  evidence.uncertainty = { 0.2, 0.3, 0.2, 0.1, 0.2, 0.1 };
   for (const char* name : { "A", "B" })
   {
     xp::ViewEvidence view;
@@ -45,6 +48,33 @@ using Codes_t = std::vector<xp::GateCode>;
 TEST(QualityGate, PassesGoodEvidence)
 {
   EXPECT_TRUE(xp::CheckQuality(GoodEvidence(), {}).empty());
+}
+
+TEST(QualityGate, FailsAResultThatDoesNotStandOutOrIsUncertain)
+{
+  xp::GateEvidence e = GoodEvidence();
+  e.peakMargin = -0.01; // a neighbour scores 1 % higher on the held-out similarity
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::NotDistinct });
+  e.peakMargin = 0.0;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::NotDistinct });
+  e.peakMargin = 0.001;
+  EXPECT_TRUE(Codes(e).empty());
+  e.peakMargin = std::nan("");
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::NotDistinct });
+
+  // Each axis against its own limit: translations in mm (3), rotations in degrees (1.5).
+  e = GoodEvidence();
+  e.uncertainty[1] = 3.01;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::Uncertain });
+  e.uncertainty[1] = 2.99;
+  e.uncertainty[4] = 1.51;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::Uncertain });
+  e.uncertainty[4] = std::numeric_limits<double>::infinity(); // no maximum along roll
+  const std::vector<xp::GateFailure> failures = xp::CheckQuality(e, {});
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_NE(failures[0].message.find("roll the result is no maximum"), std::string::npos) << failures[0].message;
+  e.uncertainty[4] = std::nan("");
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::Uncertain });
 }
 
 TEST(QualityGate, EachLimitFailsItsOwnCodeAndNamesTheView)
