@@ -116,7 +116,7 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
   // and anatomy no pose fits give a result that only the optimised, masked objective favours.
   if (!(evidence.peakMargin > settings.minPeakMargin))
     failures.push_back({ GateCode::NotDistinct, -1,
-      Format("a similarity the optimiser did not use (whole images, no masks) scores a pose 3 mm or 1.5 degrees away "
+      Format("a similarity the optimiser did not use (the pixels its masks left out as well) scores a pose 3 mm or 1.5 degrees away "
              "%.1f %% higher than the result: the images do not single out this pose",
         -100.0 * evidence.peakMargin) });
   static const char* axes[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };

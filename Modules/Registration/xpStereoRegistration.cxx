@@ -311,8 +311,9 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, const Pose& 
  * `landscapeNear` either side gives its curvature c = (2 f0 - f+ - f-) / h^2, and the uncertainty
  * is the distance over which a parabola of that curvature falls by 5 % of f0: sqrt(0.1 f0 / c);
  * infinite where a neighbour scores higher (no maximum). Then a check the optimiser never saw:
- * `heldOut` (the whole ROI, no entropy or coverage mask, no high-pass, half size) at the result
- * and at poses `landscapeCheck` either side along each axis. The right anatomy peaks at the
+ * `heldOut` (the ROI and the CT's coverage without the entropy mask, half size) at the result
+ * and at poses `landscapeCheck` either side along each axis (same ranks and high-pass as the
+ * refinement). The right anatomy peaks at the
  * right pose under any reasonable similarity; a pose that only the optimised, masked objective
  * favours (another patient's X-rays, an anatomy no pose fits) is beaten by a neighbour there.
  * The peak margin is the least relative lead of the result over those neighbours.
@@ -534,10 +535,21 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   BeginStage(result, "landscape", stageStart);
   progress.Begin("landscape", 0.9, 0.95);
   {
+    // The ROI and the CT's coverage, without the entropy mask: pixels the optimiser never saw,
+    // but none that no pose of this CT can explain.
+    const Eigen::Isometry3d resultCTToRoom = MisalignedCTToRoom(plannedCTToRoom, fineResult.pose, isocenter);
     std::vector<RegistrationView> wholeViews;
-    for (const RegistrationView& item : views)
+    for (size_t v = 0; v < views.size(); ++v)
+    {
+      RegistrationView item = views[v];
+      if (item.mask.empty())
+        item.mask.assign(item.xray.size(), 1);
+      if (settings.coverageMask && !result.endFaces.empty())
+        AndCoverage(item, coverage, resultCTToRoom, result.endFaces[v].facesToLeaveOut);
       wholeViews.push_back(pyramid ? Half(item) : item);
-    StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { settings.equalizedLevels, 0.0 });
+    }
+    StereoSimilarity heldOut(
+      coarseVolume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
     const auto objective = [&](const Pose& p)
     {
       const double value = Traced(result, fine.Evaluate(p));

@@ -81,7 +81,7 @@ struct StereoRegistrationSettings
   double ambiguousObjectiveRatio = 0.99;
   /** The landscape around the result (MeasureLandscape in the .cxx): the refinement's objective
    *  `landscapeNear...` either side of the result along each axis gives the uncertainty; a
-   *  held-out similarity (whole ROI, no masks, half size) `landscapeCheck...` either side must
+   *  held-out similarity (the ROI and CT coverage without the entropy mask, half size) `landscapeCheck...` either side must
    *  score below the result. */
   double landscapeNearMM = 1.5, landscapeNearDegrees = 1.0;
   double landscapeCheckMM = 3.0, landscapeCheckDegrees = 1.5;
