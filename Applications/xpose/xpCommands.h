@@ -148,6 +148,7 @@ struct EvaluateOptions
   double electronicNoise = 0.001;   ///< with a detector: read-out noise, fraction of the open field
   std::string xrayCT;               ///< the X-rays show this CT instead (another patient)
   std::string xrayStretch;          ///< "AXIS,FACTOR": the X-rays show the CT stretched (near anatomy)
+  bool writeXRays = false;          ///< also write each trial's X-rays as PNG
   double successMTRE = 1.0;         ///< mm
   int threads = 0;
   std::string outputDirectory;

@@ -154,6 +154,7 @@ int RunEvaluate(const EvaluateOptions& options)
   settings.seed = options.seed;
   settings.range = { options.minTranslation, options.maxTranslation, options.maxRotation };
   settings.successMTRE = options.successMTRE;
+  settings.writeXRays = options.writeXRays;
 
   // Inputs, read once for every trial.
   const StereoGeometry geometry = ReadStereoGeometry(options.geometry);

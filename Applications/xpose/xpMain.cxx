@@ -35,7 +35,7 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
   command->add_option("--max-search-apart-deg", settings.maxSearchDisagreementDegrees, "Gate: and degrees")
     ->capture_default_str();
   command->add_option("--min-peak-margin", settings.minPeakMargin,
-    "Gate: least relative lead of the result over poses 3 mm / 1.5 degrees away, on whole images without masks")
+    "Gate: least relative lead of the result over poses 3 mm / 1.5 degrees away, on a similarity the optimiser did not use")
     ->capture_default_str();
   command->add_option("--max-uncertainty-mm", settings.maxUncertaintyMM,
     "Gate: largest uncertainty of each translation (mm): where the similarity falls by 5 % of its peak")->capture_default_str();
@@ -156,7 +156,7 @@ CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
   registerCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz (or --pacs)");
   registerCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
   registerCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
-  registerCommand->add_option("--xray", options.xrays, "X-ray PNG (12-bit) or DICOM, one per imager in order (or --pacs)");
+  registerCommand->add_option("--xray", options.xrays, "X-ray: grey PNG (8 or 16 bits) or DICOM, one per imager in order (or --pacs)");
   registerCommand->add_option("--roi", options.rois, "User ROI PNG per X-ray (non-zero = use)");
   registerCommand->add_flag("!--no-entropy-mask", options.settings.entropyMask, "Register the whole image (no entropy mask)");
   registerCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
@@ -231,6 +231,7 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
     "The X-rays show this CT instead of --ct (another patient): every trial should end failed");
   evaluateCommand->add_option("--xray-stretch", options.xrayStretch,
     "AXIS,FACTOR: the X-rays show --ct stretched along its index axis 0, 1 or 2 about its centre (near anatomy)");
+  evaluateCommand->add_flag("--write-xrays", options.writeXRays, "Also write each trial's X-rays to OUT/xrays/trial_N_VIEW.png, with the geometry at their size (geometry.json)");
   evaluateCommand->add_option("--success-mtre", options.successMTRE, "Success: final mTRE below this, mm")
     ->capture_default_str();
   evaluateCommand->add_option("--threads", options.threads, "Threads (0: all cores)");

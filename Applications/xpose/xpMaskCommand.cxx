@@ -1,7 +1,5 @@
 #include "xpCommands.h"
 
-#include "xpImageLevels.h"
-
 #include "vtkXPEntropyMaskFilter.h"
 #include "xpError.h"
 #include "xpDICOMXRay.h"
@@ -10,6 +8,7 @@
 #include <vtkImageData.h>
 #include <vtkNew.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -29,15 +28,14 @@ int RunMask(const MaskOptions& options)
   {
     roi = ReadMaskPNG(options.roi, dims[0], dims[1]);
   }
-  // The registration's own view of the X-ray: its ranks over the ROI (any bit depth, any grey-level
-  // mapping gives the same mask).
+  // METHOD.md's mask bins 12-bit values; a deeper X-ray is scaled to 12 bits. (`register` takes
+  // its masks in the DRR's transmission domain, which needs the CT: Algorithms.md.)
   const size_t count = static_cast<size_t>(dims[0]) * dims[1];
-  const auto* values = static_cast<const uint16_t*>(xray->GetScalarPointer());
-  std::vector<uint8_t> allowed;
-  if (roi)
-    allowed.assign(static_cast<const uint8_t*>(roi->GetScalarPointer()), static_cast<const uint8_t*>(roi->GetScalarPointer()) + count);
-  const std::vector<uint16_t> levels = EqualizedLevels(std::vector<uint16_t>(values, values + count), allowed);
-  std::copy(levels.begin(), levels.end(), static_cast<uint16_t*>(xray->GetScalarPointer()));
+  auto* values = static_cast<uint16_t*>(xray->GetScalarPointer());
+  const uint16_t brightest = count ? *std::max_element(values, values + count) : 0;
+  if (brightest > 4095)
+    for (size_t i = 0; i < count; ++i)
+      values[i] = static_cast<uint16_t>(std::lround(values[i] * 4095.0 / brightest));
   vtkNew<vtkXPEntropyMaskFilter> filter;
   filter->SetInputData(0, xray);
   filter->SetInputData(1, roi);

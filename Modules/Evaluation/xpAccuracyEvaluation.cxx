@@ -3,15 +3,39 @@
 #include "vtkXPStereoRegistrationFilter.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
+#include "xpImageIO.h"
 #include "xpImageRows.h"
 
 #include <vtkImageData.h>
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 
 namespace xp
 {
+
+namespace
+{
+
+/** The X-rays of a trial as 16-bit PNGs (values as made), and the geometry at their size, to look
+ *  at or to register again with `xpose register --geometry xrays/geometry.json`. */
+void WriteTrialXRays(const std::vector<RegistrationView>& views, int trial, const std::filesystem::path& directory,
+  const Eigen::Vector3d& isocenter)
+{
+  std::filesystem::create_directories(directory);
+  StereoGeometry geometry;
+  geometry.name = "evaluation X-rays";
+  geometry.isocenter = isocenter;
+  for (const RegistrationView& item : views)
+    geometry.views.push_back(item.view);
+  WriteStereoGeometry(geometry, (directory / "geometry.json").string());
+  for (const RegistrationView& item : views)
+    WritePNG(ImageFromRowsTopFirst(item.xray, item.view.Columns(), item.view.Rows()),
+      (directory / ("trial_" + std::to_string(trial) + "_" + item.view.name + ".png")).string());
+}
+
+} // namespace
 
 TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::string& scenario, const Pose& truth,
   const StereoRegistrationResult& result, const std::vector<Eigen::Vector3d>& targets,
@@ -107,7 +131,11 @@ void AccuracyEvaluation::Run(
       if (folder.Done(trial, approach))
         continue;
       if (views.empty())
+      {
         views = this->XRays.Simulate(truth, random);
+        if (this->Settings.writeXRays)
+          WriteTrialXRays(views, trial, std::filesystem::path(folder.CSVPath()).parent_path() / "xrays", this->RoomIsocenter);
+      }
       const TrialRecord record = this->Register(trial, approach, truth, views);
       folder.Append(record);
       ++registered;

@@ -33,6 +33,8 @@ struct AccuracyEvaluationSettings
   MisalignmentRange range;
   double successMTRE = 2.0;  ///< mm: an `ok` registration closer than this is a success
   int shrinkFactor = 1;      ///< panel pixels per registration pixel
+  /** Also write each trial's X-rays, as registered, to xrays/trial_N_VIEW.png in the folder. */
+  bool writeXRays = false;
   StereoRegistrationSettings registration;
 };
 

@@ -204,7 +204,8 @@ struct ValidityMasks
   std::vector<RegistrationView> masked; ///< the views with the validity masks
 };
 
-ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings,
+ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
+  const std::vector<std::vector<uint16_t>>& transmission, const StereoRegistrationSettings& settings,
   const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom, StereoRegistrationResult& result)
 {
   ValidityMasks masks;
@@ -216,7 +217,7 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views, con
     std::vector<uint8_t> mask;
     if (settings.entropyMask)
     {
-      EntropyMaskResult entropy = ComputeEntropyMask(item.xray.data(), item.view.Columns(), item.view.Rows(), roi);
+      EntropyMaskResult entropy = ComputeEntropyMask(transmission[v].data(), item.view.Columns(), item.view.Rows(), roi);
       mask = std::move(entropy.mask);
       result.entropyMaps.push_back(std::move(entropy.entropy));
     }
@@ -349,7 +350,7 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
 
 /** Step 4b: what each view says about the result: the information its final DRR explains, the
  *  anatomy the CT leaves uncovered, and how far its own 2D registration would still move. */
-ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const Eigen::Vector3d& isocenter,
+ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uint16_t>& transmission, const Eigen::Vector3d& isocenter,
   const StereoRegistrationSettings& settings, JointHistogram& histogram)
 {
   const RegistrationView& item = fine.Views()[v];
@@ -359,7 +360,7 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const Eigen::Vector3d
   histogram.Compute(fine.XRayLevels(v).data(), fine.LastDRRLevels(v).data(), static_cast<long long>(item.xray.size()),
     item.mask.data(), item.mask.data());
   evidence.explained = histogram.FixedEntropy() > 0 ? histogram.MutualInformation() / histogram.FixedEntropy() : 0.0;
-  evidence.uncovered = UncoveredFraction(item.xray, fine.LastDRR(v), item.mask);
+  evidence.uncovered = UncoveredFraction(transmission, fine.LastDRR(v), item.mask);
   // The 2D search's first steps are half the residual allowed: steps of the pre-alignment's size
   // miss the narrow optimum of high-passed levels and the search shrinks back onto its start.
   const double mmPerPixel = item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() / item.view.SourceToPanelDistance();
@@ -370,39 +371,56 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const Eigen::Vector3d
   return evidence;
 }
 
+/** Each X-ray as the registration sees it (RankedXRays). */
+struct WorkingXRays
+{
+  /** Ranks over the ROI, 0..4095, the open field bright: what MI bins. */
+  std::vector<RegistrationView> ranked;
+  /** The same ranks given the DRR's 12-bit transmission at those quantiles: the method's own
+   *  domain (METHOD.md, a 12-bit transmission X-ray), where the entropy mask and the uncovered
+   *  anatomy are measured. */
+  std::vector<std::vector<uint16_t>> transmission;
+};
+
 /**
- * Step 0: each X-ray as the registration sees it: its ranks over the ROI, 0..4095, with the open
- * field bright. Any monotone grey-level mapping (raw 12 or 16 bits, log, windowed, gamma) gives
- * the same image up to ties, so no later step, mask or gate limit depends on how the panel or a
- * workstation encoded it. The polarity is read from the images themselves: the X-ray's ranks
- * correlate with the DRR at the start pose positively when bright means transmission (raw) and
- * negatively when bright means attenuation (log, "for presentation"); the body's thickness
- * decides that correlation, which a start some centimetres off does not reverse.
+ * Step 0: any monotone grey-level mapping of an X-ray (raw 12 or 16 bits, log, windowed, gamma)
+ * gives the same ranks up to ties, so nothing later depends on how the panel or a workstation
+ * encoded it. The polarity is read from the images themselves: the X-ray's ranks correlate with
+ * the DRR at the start pose positively when bright means transmission (raw) and negatively when
+ * bright means attenuation (log, "for presentation"); the body's thickness decides that sign,
+ * which a start some centimetres off does not reverse. The entropy mask needs grey values, not
+ * ranks: on ranks the quantum noise of a thick body's dark interior spreads over many levels,
+ * and the mask keeps noise-picked blobs of it. So the ranks are also mapped through the DRR's
+ * own distribution of 12-bit transmission (rank quantile -> DRR value at that quantile): the
+ * domain the method specifies, whatever the X-ray's.
  */
-std::vector<RegistrationView> RankedXRays(const std::vector<RegistrationView>& views, const AttenuationVolume& volume,
+WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, bool pyramid, StereoRegistrationResult& result)
 {
-  std::vector<RegistrationView> ranked = views;
-  for (RegistrationView& item : ranked)
+  WorkingXRays working;
+  working.ranked = views;
+  for (RegistrationView& item : working.ranked)
     item.xray = EqualizedLevels(item.xray, item.mask);
   std::vector<RegistrationView> probeViews;
-  for (const RegistrationView& item : ranked)
+  for (const RegistrationView& item : working.ranked)
     probeViews.push_back(pyramid ? Half(item) : item);
   StereoSimilarity probe(volume, plannedCTToRoom, isocenter, probeViews, 32, { false, 0.0 });
   probe.Evaluate(Pose{});
   result.drrCount += probe.RenderedDRRs();
-  for (size_t v = 0; v < ranked.size(); ++v)
+  for (size_t v = 0; v < working.ranked.size(); ++v)
   {
     const std::vector<uint16_t>& xray = probe.Views()[v].xray;
     const std::vector<uint16_t>& drr = probe.LastDRR(v);
     const std::vector<uint8_t>& mask = probe.Views()[v].mask;
     double n = 0, sx = 0, sy = 0, sxy = 0, sxx = 0, syy = 0;
+    std::vector<uint16_t> drrValues;
     for (size_t i = 0; i < xray.size(); ++i)
     {
       if (!mask.empty() && !mask[i])
         continue;
       const double x = xray[i], y = drr[i];
       n += 1, sx += x, sy += y, sxy += x * y, sxx += x * x, syy += y * y;
+      drrValues.push_back(drr[i]);
     }
     n = std::max(n, 1.0);
     const double covariance = sxy - sx * sy / n;
@@ -410,11 +428,21 @@ std::vector<RegistrationView> RankedXRays(const std::vector<RegistrationView>& v
     const double correlation = spread > 0.0 ? covariance / spread : 0.0;
     result.xrayCorrelation.push_back(correlation);
     result.xrayInverted.push_back(correlation < 0.0);
+    std::vector<uint16_t>& levels = working.ranked[v].xray;
     if (correlation < 0.0)
-      for (uint16_t& level : ranked[v].xray)
+      for (uint16_t& level : levels)
         level = static_cast<uint16_t>(RankLevels - 1 - level);
+    std::sort(drrValues.begin(), drrValues.end());
+    std::vector<uint16_t> quantile(RankLevels, 4095);
+    if (!drrValues.empty())
+      for (int level = 0; level < RankLevels; ++level)
+        quantile[level] = drrValues[std::min(drrValues.size() - 1, static_cast<size_t>((level + 0.5) / RankLevels * drrValues.size()))];
+    std::vector<uint16_t> transmission(levels.size());
+    for (size_t i = 0; i < levels.size(); ++i)
+      transmission[i] = quantile[levels[i]];
+    working.transmission.push_back(std::move(transmission));
   }
-  return ranked;
+  return working;
 }
 
 } // namespace
@@ -445,9 +473,16 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const bool halveCT = pyramid && 2.0 * volume.MaximumSpacing() <= settings.maxHalvedVoxelMM;
   const AttenuationVolume halfVolume = halveCT ? volume.Halved() : AttenuationVolume();
   const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
-  const std::vector<RegistrationView> views = settings.rankedXRays
-    ? RankedXRays(inputViews, coarseVolume, plannedCTToRoom, isocenter, pyramid, result)
-    : inputViews;
+  WorkingXRays working;
+  if (settings.rankedXRays)
+    working = RankedXRays(inputViews, coarseVolume, plannedCTToRoom, isocenter, pyramid, result);
+  else
+  {
+    working.ranked = inputViews;
+    for (const RegistrationView& item : inputViews)
+      working.transmission.push_back(item.xray);
+  }
+  const std::vector<RegistrationView>& views = working.ranked;
   std::vector<RegistrationView> coarseViews;
   for (const RegistrationView& item : views)
     coarseViews.push_back(pyramid ? Half(item) : item);
@@ -468,7 +503,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), settings.coverageMinExcess);
   }
   ValidityMasks masks = BuildValidityMasks(
-    views, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
+    views, working.transmission, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
   std::vector<RegistrationView>& masked = masks.masked;
   result.maskSeconds = Since(start);
 
@@ -582,7 +617,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   {
     result.drrs.push_back(fine.LastDRR(v));
     result.masks.push_back(masked[v].mask);
-    const ViewEvidence view = MeasureView(fine, v, isocenter, settings, histogram);
+    const ViewEvidence view = MeasureView(fine, v, working.transmission[v], isocenter, settings, histogram);
     result.explained.push_back(view.explained);
     result.uncovered.push_back(view.uncovered);
     result.viewResidualMM.push_back(view.residualMM);

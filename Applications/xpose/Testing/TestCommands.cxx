@@ -245,8 +245,7 @@ TEST(Commands, MaskOfADRRWritesMaskAndEntropy)
   options.outputDirectory = "cmd-mask-empty";
   EXPECT_EQ(xp::GuardedRun("mask", [&] { return xp::RunMask(options); }), xp::ExitBadInput);
   EXPECT_EQ(CountFiles("cmd-mask-empty"), 0);
-  // An 8-bit grey PNG is an X-ray (a processed image) and gives the mask of its ranks; a colour
-  // PNG is not an X-ray.
+  // An 8-bit grey PNG is an X-ray (a processed image); a colour PNG is not.
   options.roi.clear();
   options.xray = "cmd-mask-drr/drr_A_display.png";
   options.outputDirectory = "cmd-mask-8bit";
