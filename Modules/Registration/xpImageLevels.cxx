@@ -50,6 +50,58 @@ std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const 
   return out;
 }
 
+std::vector<uint16_t> NoiseScaledLevels(const std::vector<uint16_t>& image, int columns, int rows,
+  const std::vector<uint8_t>& mask, double levelsPerSigma, double minSigma)
+{
+  constexpr int bands = 64;
+  int top = 1;
+  for (uint16_t v : image)
+    top = std::max<int>(top, v);
+  const double bandWidth = (top + 1.0) / bands;
+  std::vector<std::vector<float>> differences(bands);
+  for (int r = 1; r + 1 < rows; ++r)
+    for (int c = 1; c + 1 < columns; ++c)
+    {
+      const size_t i = static_cast<size_t>(r) * columns + c;
+      if (!mask.empty() && !mask[i])
+        continue;
+      const double neighbours = 0.25 * (image[i - 1] + image[i + 1] + image[i - columns] + image[i + columns]);
+      differences[std::min(bands - 1, static_cast<int>(image[i] / bandWidth))].push_back(
+        static_cast<float>(std::abs(image[i] - neighbours)));
+    }
+  // Median |difference| of white noise of sd s: 0.6745 x sqrt(1.25) s.
+  std::vector<double> sigma(bands, -1.0);
+  for (int b = 0; b < bands; ++b)
+  {
+    std::vector<float>& d = differences[b];
+    if (d.size() < 50)
+      continue;
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    sigma[b] = std::max(minSigma, d[d.size() / 2] / (0.6745 * std::sqrt(1.25)));
+  }
+  // Bands with too few pixels take their nearest measured neighbour's sd.
+  for (int b = 0; b < bands; ++b)
+    if (sigma[b] < 0.0)
+    {
+      for (int k = 1; k < bands && sigma[b] < 0.0; ++k)
+      {
+        if (b - k >= 0 && differences[b - k].size() >= 50)
+          sigma[b] = sigma[b - k];
+        else if (b + k < bands && differences[b + k].size() >= 50)
+          sigma[b] = sigma[b + k];
+      }
+      if (sigma[b] < 0.0)
+        sigma[b] = minSigma;
+    }
+  std::vector<double> level(static_cast<size_t>(top) + 1, 0.0);
+  for (int v = 1; v <= top; ++v)
+    level[v] = level[v - 1] + levelsPerSigma / sigma[std::min(bands - 1, static_cast<int>(v / bandWidth))];
+  std::vector<uint16_t> out(image.size());
+  for (size_t i = 0; i < image.size(); ++i)
+    out[i] = static_cast<uint16_t>(std::min(65535.0, std::round(level[image[i]])));
+  return out;
+}
+
 namespace
 {
 

@@ -48,6 +48,17 @@ private:
 VTKXPREGISTRATION_EXPORT std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask);
 
 /**
+ * The grey levels of a columns x rows image re-spaced so that its noise has the same size at
+ * every level: the noise sd at each of 64 level bands is estimated from the valid pixels'
+ * differences to their four neighbours (median absolute difference: edges do not count), and a
+ * level's new value is the integral of 1 / sd up to it, times `levelsPerSigma` (a variance-
+ * stabilising transform, found from the image itself). An sd below `minSigma` levels counts as
+ * `minSigma` (ties of a noise-free image). Clamped to 0..65535.
+ */
+VTKXPREGISTRATION_EXPORT std::vector<uint16_t> NoiseScaledLevels(const std::vector<uint16_t>& image, int columns, int rows,
+  const std::vector<uint8_t>& mask, double levelsPerSigma, double minSigma);
+
+/**
  * `values` minus their Gaussian low-pass of sd `sigmaPixels`, over the valid pixels only
  * (normalised convolution: masked pixels neither count nor receive); computed on a grid coarser
  * by about sigma / 4 and interpolated back, so it costs little more than one pass over the image.

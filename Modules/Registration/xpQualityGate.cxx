@@ -87,6 +87,10 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
   {
     throw InputError("registration settings: minPeakMargin", "must be between -1 and 1");
   }
+  if (!(settings.minValidFraction >= 0.0 && settings.minValidFraction <= 1.0))
+  {
+    throw InputError("registration settings: minValidFraction", "must be between 0 and 1");
+  }
   if (!(settings.minExplained >= 0.0 && settings.minExplained <= 1.0))
   {
     throw InputError("registration settings: minExplained", "must be between 0 and 1");
@@ -145,6 +149,13 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
           Format(": %.0f valid pixels, fewer than the %.0f that MI over %.0f histogram cells needs: the CT, the ROI "
                  "and the masks together leave too little of the X-ray to register",
             static_cast<double>(view.validPixels), settings.minValidPixelsPerCell * cells, cells) });
+    // A mask that keeps a few percent of the view keeps edges and halos alone: on processed pelvis
+    // X-rays 1-2 % of the view was left and results slid along the slice axis (Algorithms.md).
+    if (view.pixels > 0 && !(view.validPixels >= settings.minValidFraction * view.pixels))
+      failures.push_back({ GateCode::TooFewPixels, index,
+        "view " + view.name +
+          Format(": %.1f %% of the view is valid, less than %.1f %%: the masks leave too little of the X-ray to register",
+            100.0 * view.validPixels / view.pixels, 100.0 * settings.minValidFraction) });
     if (!(view.explained >= settings.minExplained))
       failures.push_back({ GateCode::LowExplained, index,
         "view " + view.name +

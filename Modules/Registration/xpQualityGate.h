@@ -54,6 +54,7 @@ struct ViewEvidence
 {
   std::string name;
   long long validPixels = 0;      ///< registered: entropy mask, ROI and CT coverage
+  long long pixels = 0;           ///< of the view (0: not known, the fraction is not checked)
   double explained = 0.0;         ///< MI / H(X-ray) over the valid pixels
   double uncovered = 0.0;         ///< fraction of valid pixels with anatomy the CT does not cover
   double residualMM = 0.0;        ///< the view's own 2D registration's shift, mm at the isocentre

@@ -205,7 +205,7 @@ struct ValidityMasks
 };
 
 ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
-  const std::vector<std::vector<uint16_t>>& transmission, const StereoRegistrationSettings& settings,
+  const std::vector<std::vector<uint16_t>>& maskSource, const StereoRegistrationSettings& settings,
   const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom, StereoRegistrationResult& result)
 {
   ValidityMasks masks;
@@ -217,7 +217,11 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
     std::vector<uint8_t> mask;
     if (settings.entropyMask)
     {
-      EntropyMaskResult entropy = ComputeEntropyMask(transmission[v].data(), item.view.Columns(), item.view.Rows(), roi);
+      EntropyMaskSettings entropySettings;
+      entropySettings.maxValue = std::max<int>(entropySettings.binWidth,
+        *std::max_element(maskSource[v].begin(), maskSource[v].end()));
+      EntropyMaskResult entropy =
+        ComputeEntropyMask(maskSource[v].data(), item.view.Columns(), item.view.Rows(), roi, entropySettings);
       mask = std::move(entropy.mask);
       result.entropyMaps.push_back(std::move(entropy.entropy));
     }
@@ -357,6 +361,7 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
   ViewEvidence evidence;
   evidence.name = item.view.name;
   evidence.validPixels = std::count(item.mask.begin(), item.mask.end(), 1);
+  evidence.pixels = static_cast<long long>(item.mask.size());
   histogram.Compute(fine.XRayLevels(v).data(), fine.LastDRRLevels(v).data(), static_cast<long long>(item.xray.size()),
     item.mask.data(), item.mask.data());
   evidence.explained = histogram.FixedEntropy() > 0 ? histogram.MutualInformation() / histogram.FixedEntropy() : 0.0;
@@ -371,6 +376,10 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
   return evidence;
 }
 
+/** The entropy mask's bins (32 levels wide) span two noise sd: structure finer than the noise is
+ *  not information. */
+constexpr double EntropyLevelsPerNoiseSigma = 16.0;
+
 /** Each X-ray as the registration sees it (RankedXRays). */
 struct WorkingXRays
 {
@@ -380,6 +389,9 @@ struct WorkingXRays
    *  domain (METHOD.md, a 12-bit transmission X-ray), where the entropy mask and the uncovered
    *  anatomy are measured. */
   std::vector<std::vector<uint16_t>> transmission;
+  /** The ranks re-spaced so that one noise sd is the same number of levels everywhere
+   *  (NoiseScaledLevels): what the entropy mask bins. */
+  std::vector<std::vector<uint16_t>> noiseScaled;
 };
 
 /**
@@ -441,6 +453,8 @@ WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const Atten
     for (size_t i = 0; i < levels.size(); ++i)
       transmission[i] = quantile[levels[i]];
     working.transmission.push_back(std::move(transmission));
+    working.noiseScaled.push_back(NoiseScaledLevels(levels, working.ranked[v].view.Columns(), working.ranked[v].view.Rows(),
+      working.ranked[v].mask, EntropyLevelsPerNoiseSigma, 8.0));
   }
   return working;
 }
@@ -481,6 +495,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     working.ranked = inputViews;
     for (const RegistrationView& item : inputViews)
       working.transmission.push_back(item.xray);
+    working.noiseScaled = working.transmission;
   }
   const std::vector<RegistrationView>& views = working.ranked;
   std::vector<RegistrationView> coarseViews;
@@ -503,7 +518,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), settings.coverageMinExcess);
   }
   ValidityMasks masks = BuildValidityMasks(
-    views, working.transmission, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
+    views, working.noiseScaled, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
   std::vector<RegistrationView>& masked = masks.masked;
   result.maskSeconds = Since(start);
 

@@ -55,6 +55,8 @@ struct StereoRegistrationSettings
   /** gate: each view must keep at least this many valid pixels per joint-histogram cell
    *  (bins x bins): 2 = 2048 pixels with 32 bins, 1 % of a 512x384 view. */
   double minValidPixelsPerCell = 2.0;
+  /** gate: and at least this fraction of the view's pixels. */
+  double minValidFraction = 0.05;
   /** gate: MI / H(X-ray) each view must reach at the result, on the ranked X-ray: 0.07-0.5 for
    *  accurate results of linear and log X-rays, 0.04-0.05 for another patient's (Algorithms.md). */
   double minExplained = 0.05;

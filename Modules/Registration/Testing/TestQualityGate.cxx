@@ -24,6 +24,7 @@ xp::GateEvidence GoodEvidence()
     xp::ViewEvidence view;
     view.name = name;
     view.validPixels = 20000;
+    view.pixels = 196608;
     view.explained = 0.3;
     view.uncovered = 0.01;
     view.residualMM = 0.1;
@@ -48,6 +49,18 @@ using Codes_t = std::vector<xp::GateCode>;
 TEST(QualityGate, PassesGoodEvidence)
 {
   EXPECT_TRUE(xp::CheckQuality(GoodEvidence(), {}).empty());
+}
+
+TEST(QualityGate, FailsAViewWhoseMasksKeepAFewPercent)
+{
+  xp::GateEvidence e = GoodEvidence();
+  e.views[1].validPixels = 9800; // 4.98 % of 512 x 384
+  const std::vector<xp::GateFailure> failures = xp::CheckQuality(e, {});
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0].code, xp::GateCode::TooFewPixels);
+  EXPECT_EQ(failures[0].view, 1);
+  e.views[1].validPixels = 9831; // 5.0 %
+  EXPECT_TRUE(xp::CheckQuality(e, {}).empty());
 }
 
 TEST(QualityGate, FailsAResultThatDoesNotStandOutOrIsUncertain)
@@ -106,6 +119,7 @@ TEST(QualityGate, EachLimitFailsItsOwnCodeAndNamesTheView)
   EXPECT_TRUE(Codes(e).empty());
 
   e = GoodEvidence();
+  e.views[0].pixels = 12000;     // a small view: the fraction (5 %) asks for 600
   e.views[0].validPixels = 2047; // 32 x 32 cells, 2 pixels each
   EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::TooFewPixels });
   e.views[0].validPixels = 2048;
