@@ -187,6 +187,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.searchApartDegrees = result.searchDisagreementDegrees;
   record.searchObjectiveRatio = result.searchObjectiveRatio;
   record.uncertainty = result.uncertainty;
+  record.xrayCorrelation = result.xrayCorrelation;
   record.peakMargin = result.peakMargin;
   record.stages = result.stages;
   record.objectiveTrace = result.objectiveTrace;
@@ -232,6 +233,13 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   for (int a = 0; a < 6; ++a)
     root["uncertainty"][axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
   root["peak_margin"] = r.peakMargin;
+  // How each X-ray's grey levels were read: bright = transmission (raw) or attenuation (log),
+  // from the sign of its correlation with the DRR at the start pose.
+  for (size_t v = 0; v < r.viewNames.size() && v < r.xrayCorrelation.size(); ++v)
+  {
+    root["xray_polarity"][r.viewNames[v]]["bright_means"] = r.xrayCorrelation[v] < 0.0 ? "attenuation" : "transmission";
+    root["xray_polarity"][r.viewNames[v]]["correlation_with_drr"] = r.xrayCorrelation[v];
+  }
   root["reasons"] = List(r.Reasons());
   Json::Value& failures = root["failures"] = Json::Value(Json::arrayValue);
   for (const GateFailure& failure : r.failures)

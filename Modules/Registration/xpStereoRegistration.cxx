@@ -385,14 +385,47 @@ struct WorkingXRays
 {
   /** Ranks over the ROI, 0..4095, the open field bright: what MI bins. */
   std::vector<RegistrationView> ranked;
-  /** The same ranks given the DRR's 12-bit transmission at those quantiles: the method's own
-   *  domain (METHOD.md, a 12-bit transmission X-ray), where the entropy mask and the uncovered
-   *  anatomy are measured. */
-  std::vector<std::vector<uint16_t>> transmission;
   /** The ranks re-spaced so that one noise sd is the same number of levels everywhere
    *  (NoiseScaledLevels): what the entropy mask bins. */
   std::vector<std::vector<uint16_t>> noiseScaled;
+  /** The ranks given the DRR's 12-bit transmission at the same quantiles: the method's own
+   *  domain (METHOD.md), where "attenuated" (the uncovered-anatomy check) means what it says. */
+  std::vector<std::vector<uint16_t>> transmission;
 };
+
+/** Pearson correlation of an X-ray's levels with its DRR over the valid pixels (empty mask: all). */
+double CorrelationWithDRR(const std::vector<uint16_t>& xray, const std::vector<uint16_t>& drr, const std::vector<uint8_t>& mask)
+{
+  double n = 0, sx = 0, sy = 0, sxy = 0, sxx = 0, syy = 0;
+  for (size_t i = 0; i < xray.size(); ++i)
+  {
+    if (!mask.empty() && !mask[i])
+      continue;
+    const double x = xray[i], y = drr[i];
+    n += 1, sx += x, sy += y, sxy += x * y, sxx += x * x, syy += y * y;
+  }
+  n = std::max(n, 1.0);
+  const double spread = std::sqrt(std::max(0.0, (sxx - sx * sx / n) * (syy - sy * sy / n)));
+  return spread > 0.0 ? (sxy - sx * sy / n) / spread : 0.0;
+}
+
+/** Rank levels (0..4095) given the value that `reference`'s valid pixels hold at the same quantile. */
+std::vector<uint16_t> ThroughDistributionOf(
+  const std::vector<uint16_t>& levels, const std::vector<uint16_t>& reference, const std::vector<uint8_t>& mask)
+{
+  std::vector<uint16_t> sorted;
+  for (size_t i = 0; i < reference.size(); ++i)
+    if (mask.empty() || mask[i])
+      sorted.push_back(reference[i]);
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<uint16_t> atQuantile(RankLevels, 4095);
+  for (int level = 0; level < RankLevels && !sorted.empty(); ++level)
+    atQuantile[level] = sorted[std::min(sorted.size() - 1, static_cast<size_t>((level + 0.5) / RankLevels * sorted.size()))];
+  std::vector<uint16_t> out(levels.size());
+  for (size_t i = 0; i < levels.size(); ++i)
+    out[i] = atQuantile[levels[i]];
+  return out;
+}
 
 /**
  * Step 0: any monotone grey-level mapping of an X-ray (raw 12 or 16 bits, log, windowed, gamma)
@@ -400,11 +433,9 @@ struct WorkingXRays
  * encoded it. The polarity is read from the images themselves: the X-ray's ranks correlate with
  * the DRR at the start pose positively when bright means transmission (raw) and negatively when
  * bright means attenuation (log, "for presentation"); the body's thickness decides that sign,
- * which a start some centimetres off does not reverse. The entropy mask needs grey values, not
- * ranks: on ranks the quantum noise of a thick body's dark interior spreads over many levels,
- * and the mask keeps noise-picked blobs of it. So the ranks are also mapped through the DRR's
- * own distribution of 12-bit transmission (rank quantile -> DRR value at that quantile): the
- * domain the method specifies, whatever the X-ray's.
+ * which a start some centimetres off does not reverse. The entropy mask needs levels on which
+ * noise has one size (on ranks a thick body's noisy interior spreads over many levels, and the
+ * mask kept noise-picked blobs of it): NoiseScaledLevels.
  */
 WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, bool pyramid, StereoRegistrationResult& result)
@@ -421,40 +452,16 @@ WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const Atten
   result.drrCount += probe.RenderedDRRs();
   for (size_t v = 0; v < working.ranked.size(); ++v)
   {
-    const std::vector<uint16_t>& xray = probe.Views()[v].xray;
-    const std::vector<uint16_t>& drr = probe.LastDRR(v);
-    const std::vector<uint8_t>& mask = probe.Views()[v].mask;
-    double n = 0, sx = 0, sy = 0, sxy = 0, sxx = 0, syy = 0;
-    std::vector<uint16_t> drrValues;
-    for (size_t i = 0; i < xray.size(); ++i)
-    {
-      if (!mask.empty() && !mask[i])
-        continue;
-      const double x = xray[i], y = drr[i];
-      n += 1, sx += x, sy += y, sxy += x * y, sxx += x * x, syy += y * y;
-      drrValues.push_back(drr[i]);
-    }
-    n = std::max(n, 1.0);
-    const double covariance = sxy - sx * sy / n;
-    const double spread = std::sqrt(std::max(0.0, (sxx - sx * sx / n) * (syy - sy * sy / n)));
-    const double correlation = spread > 0.0 ? covariance / spread : 0.0;
+    RegistrationView& item = working.ranked[v];
+    const double correlation = CorrelationWithDRR(probe.Views()[v].xray, probe.LastDRR(v), probe.Views()[v].mask);
     result.xrayCorrelation.push_back(correlation);
     result.xrayInverted.push_back(correlation < 0.0);
-    std::vector<uint16_t>& levels = working.ranked[v].xray;
     if (correlation < 0.0)
-      for (uint16_t& level : levels)
+      for (uint16_t& level : item.xray)
         level = static_cast<uint16_t>(RankLevels - 1 - level);
-    std::sort(drrValues.begin(), drrValues.end());
-    std::vector<uint16_t> quantile(RankLevels, 4095);
-    if (!drrValues.empty())
-      for (int level = 0; level < RankLevels; ++level)
-        quantile[level] = drrValues[std::min(drrValues.size() - 1, static_cast<size_t>((level + 0.5) / RankLevels * drrValues.size()))];
-    std::vector<uint16_t> transmission(levels.size());
-    for (size_t i = 0; i < levels.size(); ++i)
-      transmission[i] = quantile[levels[i]];
-    working.transmission.push_back(std::move(transmission));
-    working.noiseScaled.push_back(NoiseScaledLevels(levels, working.ranked[v].view.Columns(), working.ranked[v].view.Rows(),
-      working.ranked[v].mask, EntropyLevelsPerNoiseSigma, 8.0));
+    working.noiseScaled.push_back(
+      NoiseScaledLevels(item.xray, item.view.Columns(), item.view.Rows(), item.mask, EntropyLevelsPerNoiseSigma, 8.0));
+    working.transmission.push_back(ThroughDistributionOf(item.xray, probe.LastDRR(v), probe.Views()[v].mask));
   }
   return working;
 }

@@ -644,3 +644,33 @@ TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
   EXPECT_FALSE(result.ok) << result.misalignment.ToString();
   EXPECT_TRUE(FailedWith(result, xp::GateCode::UncoveredAnatomy)) << Described(result);
 }
+
+TEST(StereoRegistrationFormats, RawAndLogXRaysOfAnyDepthGiveTheSameAnswer)
+{
+  // The same X-rays as 12-bit raw transmission, 16-bit raw and 16-bit log (bright = attenuation):
+  // ranks make them one image, so the three registrations agree, and the log one is read as such.
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  std::vector<xp::RegistrationView> raw12 = SimulateKV(scene, truth, 7, 256, 192);
+  std::vector<xp::RegistrationView> raw16 = raw12, log16 = raw12;
+  for (size_t v = 0; v < raw12.size(); ++v)
+    for (size_t i = 0; i < raw12[v].xray.size(); ++i)
+    {
+      const double transmission = std::max(raw12[v].xray[i], uint16_t(1)) / 4095.0;
+      raw16[v].xray[i] = static_cast<uint16_t>(std::lround(65535.0 * transmission));
+      log16[v].xray[i] = static_cast<uint16_t>(std::lround(65535.0 * -std::log(transmission) / 9.0));
+    }
+  std::vector<xp::Pose> found;
+  for (const std::vector<xp::RegistrationView>* views : { &raw12, &raw16, &log16 })
+  {
+    const xp::StereoRegistrationResult result = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), *views);
+    EXPECT_TRUE(result.ok) << Described(result);
+    ASSERT_EQ(result.xrayInverted.size(), 2u);
+    for (bool inverted : result.xrayInverted)
+      EXPECT_EQ(inverted, views == &log16) << "bright means attenuation in the log images only";
+    EXPECT_LT((result.misalignment.translation - truth.translation).cwiseAbs().maxCoeff(), 0.5);
+    found.push_back(result.misalignment);
+  }
+  for (size_t k = 1; k < found.size(); ++k)
+    EXPECT_LT((found[k].translation - found[0].translation).norm(), 0.1) << "format " << k << " moved the answer";
+}
