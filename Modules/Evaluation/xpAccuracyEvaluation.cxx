@@ -65,6 +65,7 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
     r.explained = *std::min_element(result.explained.begin(), result.explained.end());
     r.residualMM = *std::max_element(result.viewResidualMM.begin(), result.viewResidualMM.end());
     r.uncovered = *std::max_element(result.uncovered.begin(), result.uncovered.end());
+    r.halvesApartMM = *std::max_element(result.halvesApartMM.begin(), result.halvesApartMM.end());
   }
   r.searchApartMM = result.searchDisagreementMM;
   r.searchApartDegrees = result.searchDisagreementDegrees;

@@ -42,6 +42,7 @@ struct TrialRecord
   /** The landscape at the result: the least lead of the result over its held-out neighbours, and the largest per-axis
    *  uncertainty in mm and in degrees (inf: no maximum along some axis). */
   double peakMargin = 0.0, uncertaintyMM = 0.0, uncertaintyDegrees = 0.0;
+  double halvesApartMM = 0.0; ///< the largest over views (xpQualityGate.h)
   std::string reasons;               ///< the gate's reasons, ';'-separated
 };
 

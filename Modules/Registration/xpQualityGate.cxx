@@ -47,6 +47,8 @@ const char* GateCodeName(GateCode code)
       return "not_distinct";
     case GateCode::Uncertain:
       return "uncertain";
+    case GateCode::HalvesDisagree:
+      return "halves_disagree";
   }
   return "unknown";
 }
@@ -66,6 +68,7 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
          std::make_pair(settings.maxViewResidualDegrees, "maxViewResidualDegrees"),
          std::make_pair(settings.maxUncovered, "maxUncovered"), std::make_pair(settings.maxUncertaintyMM, "maxUncertaintyMM"),
          std::make_pair(settings.maxUncertaintyDegrees, "maxUncertaintyDegrees"),
+         std::make_pair(settings.maxHalvesApartMM, "maxHalvesApartMM"),
          std::make_pair(settings.landscapeNearMM, "landscapeNearMM"), std::make_pair(settings.landscapeNearDegrees, "landscapeNearDegrees"),
          std::make_pair(settings.landscapeCheckMM, "landscapeCheckMM"), std::make_pair(settings.landscapeCheckDegrees, "landscapeCheckDegrees") })
   {
@@ -168,6 +171,12 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
           Format(": %.0f %% of the valid pixels show anatomy where the CT has none at the result (> %.0f %%): the CT does "
                  "not cover what the X-ray shows; a ROI around the anatomy the CT covers can exclude the rest",
             100.0 * view.uncovered, 100.0 * settings.maxUncovered) });
+    if (!(view.halvesApartMM <= settings.maxHalvesApartMM))
+      failures.push_back({ GateCode::HalvesDisagree, index,
+        "view " + view.name +
+          Format(": its two halves, each registered on its own, end %.2f mm apart (> %.2f mm): the anatomy does not "
+                 "fit one rigid pose (another patient, or a changed one)",
+            view.halvesApartMM, settings.maxHalvesApartMM) });
     if (!(view.residualMM <= settings.maxViewResidual && std::abs(view.residualDegrees) <= settings.maxViewResidualDegrees))
       failures.push_back({ GateCode::ViewDisagrees, index,
         "view " + view.name +

@@ -36,7 +36,8 @@ enum class GateCode
   UncoveredAnatomy,    ///< a view shows anatomy where the CT has none at the result
   ViewDisagrees,       ///< a view's own 2D registration still wants to move
   NotDistinct,         ///< a similarity the optimiser did not use scores a neighbouring pose higher
-  Uncertain            ///< along some axis the objective is too flat (or no maximum) at the result
+  Uncertain,           ///< along some axis the objective is too flat (or no maximum) at the result
+  HalvesDisagree       ///< a view's halves, registered each on its own, move apart: no rigid fit
 };
 
 /** Stable lower-case name of a code, as result.json writes it ("low_explained", ...). */
@@ -59,6 +60,9 @@ struct ViewEvidence
   double uncovered = 0.0;         ///< fraction of valid pixels with anatomy the CT does not cover
   double residualMM = 0.0;        ///< the view's own 2D registration's shift, mm at the isocentre
   double residualDegrees = 0.0;   ///< and in-plane rotation
+  /** The largest distance (mm at the isocentre) between the 2D registrations of the view's two
+   *  halves (left/right, top/bottom), each on its own. */
+  double halvesApartMM = 0.0;
 };
 
 /** The failures' messages, in order. */

@@ -148,7 +148,7 @@ GateCode CodeNamed(const std::string& name, const Fields& fields)
 {
   for (GateCode code : { GateCode::InvalidInput, GateCode::NotConverged, GateCode::TranslationTooLarge,
          GateCode::RotationTooLarge, GateCode::AmbiguousPose, GateCode::TooFewPixels, GateCode::LowExplained, GateCode::UncoveredAnatomy,
-         GateCode::ViewDisagrees, GateCode::NotDistinct, GateCode::Uncertain })
+         GateCode::ViewDisagrees, GateCode::NotDistinct, GateCode::Uncertain, GateCode::HalvesDisagree })
   {
     if (name == GateCodeName(code))
       return code;
@@ -188,6 +188,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.searchObjectiveRatio = result.searchObjectiveRatio;
   record.uncertainty = result.uncertainty;
   record.xrayCorrelation = result.xrayCorrelation;
+  record.halvesApartMM = result.halvesApartMM;
   record.peakMargin = result.peakMargin;
   record.stages = result.stages;
   record.objectiveTrace = result.objectiveTrace;
@@ -233,6 +234,7 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   for (int a = 0; a < 6; ++a)
     root["uncertainty"][axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
   root["peak_margin"] = r.peakMargin;
+  root["halves_apart_mm"] = PerView(r.viewNames, r.halvesApartMM);
   // How each X-ray's grey levels were read: bright = transmission (raw) or attenuation (log),
   // from the sign of its correlation with the DRR at the start pose.
   for (size_t v = 0; v < r.viewNames.size() && v < r.xrayCorrelation.size(); ++v)

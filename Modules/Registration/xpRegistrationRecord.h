@@ -56,6 +56,7 @@ struct RegistrationRecord
   /** Per view: correlation of the X-ray with the DRR at the start pose (< 0: bright means
    *  attenuation, as log images); written, not read back. */
   std::vector<double> xrayCorrelation;
+  std::vector<double> halvesApartMM; ///< per view; written, not read back
   double peakMargin = 0.0;
   std::vector<RegistrationStage> stages;
   std::vector<double> objectiveTrace;

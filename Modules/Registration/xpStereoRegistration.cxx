@@ -373,6 +373,25 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
     item.view.Project(isocenter), item.mask.data(), settings.bins, 0.5 * settings.maxViewResidual / mmPerPixel);
   evidence.residualMM = residual.shift.norm() * mmPerPixel;
   evidence.residualDegrees = residual.rotation;
+  // Each half of the view (left and right, then top and bottom) registered on its own: a rigid
+  // fit of the right anatomy leaves both where the whole is, while an anatomy that no rigid pose
+  // fits (another person, or one 10 % longer) pulls the halves apart, each towards its own part.
+  const int columns = item.view.Columns(), rows = item.view.Rows();
+  for (int split = 0; split < 2; ++split)
+  {
+    Eigen::Vector2d shifts[2];
+    for (int side = 0; side < 2; ++side)
+    {
+      std::vector<uint8_t> half = item.mask;
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < columns; ++c)
+          if (((split == 0 ? 2 * c / columns : 2 * r / rows) != side))
+            half[static_cast<size_t>(r) * columns + c] = 0;
+      shifts[side] = Register2D(fine.XRayLevels(v), fine.LastDRRLevels(v), columns, rows, item.view.Project(isocenter),
+        half.data(), settings.bins, 0.5 * settings.maxViewResidual / mmPerPixel).shift;
+    }
+    evidence.halvesApartMM = std::max(evidence.halvesApartMM, (shifts[0] - shifts[1]).norm() * mmPerPixel);
+  }
   return evidence;
 }
 
@@ -643,6 +662,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     result.explained.push_back(view.explained);
     result.uncovered.push_back(view.uncovered);
     result.viewResidualMM.push_back(view.residualMM);
+    result.halvesApartMM.push_back(view.halvesApartMM);
     evidence.views.push_back(view);
   }
   result.failures = CheckQuality(evidence, settings);
