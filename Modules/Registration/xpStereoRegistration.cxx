@@ -354,7 +354,7 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
 
 /** Step 4b: what each view says about the result: the information its final DRR explains, the
  *  anatomy the CT leaves uncovered, and how far its own 2D registration would still move. */
-ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uint16_t>& transmission, const Eigen::Vector3d& isocenter,
+ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uint16_t>& openFieldBright, const Eigen::Vector3d& isocenter,
   const StereoRegistrationSettings& settings, JointHistogram& histogram)
 {
   const RegistrationView& item = fine.Views()[v];
@@ -365,7 +365,7 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
   histogram.Compute(fine.XRayLevels(v).data(), fine.LastDRRLevels(v).data(), static_cast<long long>(item.xray.size()),
     item.mask.data(), item.mask.data());
   evidence.explained = histogram.FixedEntropy() > 0 ? histogram.MutualInformation() / histogram.FixedEntropy() : 0.0;
-  evidence.uncovered = UncoveredFraction(transmission, fine.LastDRR(v), item.mask);
+  evidence.uncovered = UncoveredFraction(openFieldBright, fine.LastDRR(v), item.mask);
   // The 2D search's first steps are half the residual allowed: steps of the pre-alignment's size
   // miss the narrow optimum of high-passed levels and the search shrinks back onto its start.
   const double mmPerPixel = item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() / item.view.SourceToPanelDistance();
@@ -407,9 +407,10 @@ struct WorkingXRays
   /** The ranks re-spaced so that one noise sd is the same number of levels everywhere
    *  (NoiseScaledLevels): what the entropy mask bins. */
   std::vector<std::vector<uint16_t>> noiseScaled;
-  /** The ranks given the DRR's 12-bit transmission at the same quantiles: the method's own
-   *  domain (METHOD.md), where "attenuated" (the uncovered-anatomy check) means what it says. */
-  std::vector<std::vector<uint16_t>> transmission;
+  /** The X-rays' own values with the open field bright (a log image turned over): the
+   *  uncovered-anatomy check's "below 80 % of the open field". Not ranks, nor the DRR's
+   *  distribution: that lacks the anatomy the CT does not have, which the check looks for. */
+  std::vector<std::vector<uint16_t>> openFieldBright;
 };
 
 /** Pearson correlation of an X-ray's levels with its DRR over the valid pixels (empty mask: all). */
@@ -426,24 +427,6 @@ double CorrelationWithDRR(const std::vector<uint16_t>& xray, const std::vector<u
   n = std::max(n, 1.0);
   const double spread = std::sqrt(std::max(0.0, (sxx - sx * sx / n) * (syy - sy * sy / n)));
   return spread > 0.0 ? (sxy - sx * sy / n) / spread : 0.0;
-}
-
-/** Rank levels (0..4095) given the value that `reference`'s valid pixels hold at the same quantile. */
-std::vector<uint16_t> ThroughDistributionOf(
-  const std::vector<uint16_t>& levels, const std::vector<uint16_t>& reference, const std::vector<uint8_t>& mask)
-{
-  std::vector<uint16_t> sorted;
-  for (size_t i = 0; i < reference.size(); ++i)
-    if (mask.empty() || mask[i])
-      sorted.push_back(reference[i]);
-  std::sort(sorted.begin(), sorted.end());
-  std::vector<uint16_t> atQuantile(RankLevels, 4095);
-  for (int level = 0; level < RankLevels && !sorted.empty(); ++level)
-    atQuantile[level] = sorted[std::min(sorted.size() - 1, static_cast<size_t>((level + 0.5) / RankLevels * sorted.size()))];
-  std::vector<uint16_t> out(levels.size());
-  for (size_t i = 0; i < levels.size(); ++i)
-    out[i] = atQuantile[levels[i]];
-  return out;
 }
 
 /**
@@ -480,7 +463,14 @@ WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const Atten
         level = static_cast<uint16_t>(RankLevels - 1 - level);
     working.noiseScaled.push_back(
       NoiseScaledLevels(item.xray, item.view.Columns(), item.view.Rows(), item.mask, EntropyLevelsPerNoiseSigma, 8.0));
-    working.transmission.push_back(ThroughDistributionOf(item.xray, probe.LastDRR(v), probe.Views()[v].mask));
+    std::vector<uint16_t> values = views[v].xray;
+    if (correlation < 0.0)
+    {
+      const uint16_t brightest = values.empty() ? 0 : *std::max_element(values.begin(), values.end());
+      for (uint16_t& value : values)
+        value = static_cast<uint16_t>(brightest - value);
+    }
+    working.openFieldBright.push_back(std::move(values));
   }
   return working;
 }
@@ -520,8 +510,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   {
     working.ranked = inputViews;
     for (const RegistrationView& item : inputViews)
-      working.transmission.push_back(item.xray);
-    working.noiseScaled = working.transmission;
+      working.openFieldBright.push_back(item.xray);
+    working.noiseScaled = working.openFieldBright;
   }
   const std::vector<RegistrationView>& views = working.ranked;
   std::vector<RegistrationView> coarseViews;
@@ -658,7 +648,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   {
     result.drrs.push_back(fine.LastDRR(v));
     result.masks.push_back(masked[v].mask);
-    const ViewEvidence view = MeasureView(fine, v, working.transmission[v], isocenter, settings, histogram);
+    const ViewEvidence view = MeasureView(fine, v, working.openFieldBright[v], isocenter, settings, histogram);
     result.explained.push_back(view.explained);
     result.uncovered.push_back(view.uncovered);
     result.viewResidualMM.push_back(view.residualMM);
