@@ -121,11 +121,11 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
         evidence.searchApartMM, evidence.searchApartDegrees) });
   // A similarity the optimiser never saw must peak at the result too: another patient's X-rays
   // and anatomy no pose fits give a result that only the optimised, masked objective favours.
-  if (!(evidence.peakMargin > settings.minPeakMargin))
+  if (!(evidence.peakMargin >= settings.minPeakMargin))
     failures.push_back({ GateCode::NotDistinct, -1,
-      Format("a similarity the optimiser did not use (the pixels its masks left out as well) scores a pose 3 mm or 1.5 degrees away "
-             "%.1f %% higher than the result: the images do not single out this pose",
-        -100.0 * evidence.peakMargin) });
+      Format("on a similarity the optimiser did not use (the pixels its masks left out as well) the result leads the "
+             "poses 3 mm and 1.5 degrees away by %.1f %% (< %.1f %%): the images do not single out this pose",
+        100.0 * evidence.peakMargin, 100.0 * settings.minPeakMargin) });
   static const char* axes[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };
   for (int a = 0; a < 6; ++a)
   {
