@@ -50,6 +50,15 @@ RegistrationView Half(const RegistrationView& item)
   return half;
 }
 
+/** The views at the coarse stages' size: halved when the registration runs a pyramid. */
+std::vector<RegistrationView> AtCoarseSize(const std::vector<RegistrationView>& views, bool pyramid)
+{
+  std::vector<RegistrationView> coarse;
+  for (const RegistrationView& item : views)
+    coarse.push_back(pyramid ? Half(item) : item);
+  return coarse;
+}
+
 /** Starts a stage of the 6-DOF search; the previous one, if any, ends here. */
 void BeginStage(StereoRegistrationResult& result, const char* name, Clock::time_point& stageStart)
 {
@@ -446,10 +455,7 @@ WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const Atten
   working.ranked = views;
   for (RegistrationView& item : working.ranked)
     item.xray = EqualizedLevels(item.xray, item.mask);
-  std::vector<RegistrationView> probeViews;
-  for (const RegistrationView& item : working.ranked)
-    probeViews.push_back(pyramid ? Half(item) : item);
-  StereoSimilarity probe(volume, plannedCTToRoom, isocenter, probeViews, 32, { false, 0.0 });
+  StereoSimilarity probe(volume, plannedCTToRoom, isocenter, AtCoarseSize(working.ranked, pyramid), 32, { false, 0.0 });
   probe.Evaluate(Pose{});
   result.drrCount += probe.RenderedDRRs();
   for (size_t v = 0; v < working.ranked.size(); ++v)
@@ -514,9 +520,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     working.noiseScaled = working.openFieldBright;
   }
   const std::vector<RegistrationView>& views = working.ranked;
-  std::vector<RegistrationView> coarseViews;
-  for (const RegistrationView& item : views)
-    coarseViews.push_back(pyramid ? Half(item) : item);
+  const std::vector<RegistrationView> coarseViews = AtCoarseSize(views, pyramid);
   StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins, { settings.equalizedLevels, 0.0 });
   result.prealignment = PreAlign(coarse, Pose{}, isocenter);
   result.drrCount += coarse.RenderedDRRs();
@@ -528,8 +532,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   if (settings.coverageMask)
   {
     std::vector<std::vector<uint16_t>> asTheyCame;
-    for (const RegistrationView& item : inputViews)
-      asTheyCame.push_back(pyramid ? Half(item).xray : item.xray);
+    for (const RegistrationView& item : AtCoarseSize(inputViews, pyramid))
+      asTheyCame.push_back(item.xray);
     result.endFaces = MeasureEndFaces(coarse, asTheyCame, result.prealignment.pose, coverage,
       MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), settings.coverageMinExcess);
   }
@@ -544,9 +548,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   Clock::time_point stageStart; // set by BeginStage
   std::vector<Pose> searchEnds;
   {
-    std::vector<RegistrationView> coarseSearch;
-    for (const RegistrationView& item : masked)
-      coarseSearch.push_back(pyramid ? Half(item) : item);
+    const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
     StereoSimilarity searchSimilarity(
       coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins, { settings.equalizedLevels, 0.0 });
     searchEnds = SearchFromTwoStarts(searchSimilarity, result.prealignment.pose, settings, pyramid, result, progress, stageStart);
@@ -612,13 +614,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
         item.mask.assign(item.xray.size(), 1);
       if (settings.coverageMask && !result.endFaces.empty())
         AndCoverage(item, coverage, resultCTToRoom, result.endFaces[v].facesToLeaveOut);
-      wholeViews.push_back(pyramid ? Half(item) : item);
+      wholeViews.push_back(item);
     }
     StereoSimilarity heldOut(
-      coarseVolume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
+      coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
     const auto objective = [&](const Pose& p)
     {
       const double value = Traced(result, fine.Evaluate(p));
+      ++result.evaluations;
       progress.Evaluated(value);
       return value;
     };
