@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}
 rowTrials=${2:-10}
-xpose=build/bin/xpose
+xpose=${XPOSE:-build/bin/xpose} # XPOSE: a copy, for a long run beside a rebuild
 pelvis=../shared/data/ct/vhm-pelvis
 geometry=Data/geometry/stereo-oblique-90.json
 mkdir -p eval

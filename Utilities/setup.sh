@@ -9,6 +9,7 @@ packages=(
   libvtk9-dev libvtkgdcm-dev libgdcm-dev      # VTK 9.1 and GDCM with its VTK bridge
   libeigen3-dev libnlopt-cxx-dev libopencv-dev libcli11-dev
   libgtest-dev libbenchmark-dev
+  libpng-dev libtiff-dev                      # X-ray and volume files: PNG, TIFF (8/16-bit, stacks)
   libxrl-dev                                  # xraylib: X-ray cross sections for the simulator
   python3-vtk9 python3-dev                    # the xpose Python package, wrapped against Debian's VTK
   xvfb xauth                                  # off-screen rendering tests on a virtual display

@@ -38,8 +38,9 @@ struct PhantomOptions
 
 struct DRROptions
 {
-  std::string ct;             ///< DICOM folder, .mha/.mhd or .nii/.nii.gz
+  std::string ct;             ///< DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack
   std::string series;         ///< Series Instance UID when the folder holds several
+  std::string voxelSize;      ///< "x,y,z" mm, for a TIFF stack
   std::string geometry;       ///< geometry JSON (GEOMETRY.md)
   std::string size;           ///< "COLSxROWS"; empty = the panel's own size
   std::string pose = "0,0,0,0,0,0";
@@ -96,11 +97,13 @@ struct RegisterOptions
 {
   std::string ct;
   std::string series;
+  std::string voxelSize;            ///< "x,y,z" mm, for a TIFF stack
   std::string geometry;
   std::vector<std::string> xrays;   ///< one per imager, in the geometry's order
   std::vector<std::string> rois;    ///< optional, one per X-ray
   std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
   std::string isocenterInCT;
+  std::string initialPose;          ///< "tx,ty,tz,pitch,roll,yaw"; empty = the planned set-up
   double muWater = WaterAttenuationPerMM;
   bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
   StereoRegistrationSettings settings; ///< the method and its quality gate, as the options set them
@@ -166,12 +169,14 @@ struct GeometryOptions
   std::vector<std::string> intrinsics;         ///< or K files, one per imager
   std::vector<std::string> extrinsics;         ///< with [R | t] files, one per imager
   std::vector<std::string> dicom;              ///< or DICOM X-rays (RT Image, DX, CR, XA), one per imager
+  std::vector<std::string> cameraCalibrations; ///< or XMALab camera calibrations, one per imager
   std::string patientPosition;                 ///< for a DX/CR/XA without Patient Position (0018,5100)
   std::string check;                           ///< with `dicom`: compare them with this geometry file instead
   std::vector<std::string> names;              ///< the imagers' names; empty = A, B, ...
   std::string pixelSpacing;                    ///< "MM" or "COLUMN_MM,ROW_MM"
   std::string size;                            ///< "COLSxROWS"
-  std::string isocenter = "0,0,0";             ///< Room mm
+  /** Room mm; empty = 0,0,0, or with camera calibrations the central rays' closest approach. */
+  std::string isocenter;
   std::string output;                          ///< the geometry JSON to write
 };
 

@@ -181,7 +181,8 @@ void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
 
 } // namespace
 
-DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& geometryPath,
+DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& voxelSize,
+  const std::string& geometryPath,
   const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize)
 {
   if (method != "trilinear" && method != "siddon")
@@ -198,7 +199,7 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
   }
   DRRSetup setup;
   setup.geometry = ReadStereoGeometry(geometryPath); // geometry first: cheap to check
-  setup.ct = ReadCTVolume(ctPath, series);
+  setup.ct = ReadCTVolume(ctPath, series, ParseVoxelSize(voxelSize, "--voxel-size"));
   // Steps far below a voxel add nothing but time (1e-9 mm ran without end): bound the work.
   double spacing[3];
   setup.ct.image->GetSpacing(spacing);
@@ -271,7 +272,7 @@ int RunDRR(const DRROptions& options)
     size = ParseSize(options.size, "--size");
   }
   const auto readStart = std::chrono::steady_clock::now();
-  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.geometry, options.isocenterInCT, options.muWater,
+  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.voxelSize, options.geometry, options.isocenterInCT, options.muWater,
     options.method, options.stepSize);
   const double readSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - readStart).count();
   vtkXPDRRFilter* drr = setup.filter;

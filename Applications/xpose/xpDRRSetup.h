@@ -25,9 +25,10 @@ struct DRRSetup
 
 /**
  * Reads the geometry and the CT and configures one DRR filter (view set later per imager).
- * `isocenterInCT` is "x,y,z" in LPS mm or empty for the CT centre; `method` trilinear|siddon.
+ * `isocenterInCT` is "x,y,z" in LPS mm or empty for the CT centre; `method` trilinear|siddon; `voxelSize` "x,y,z" mm for a TIFF volume (--voxel-size), else empty.
  */
-DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& geometryPath,
+DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& voxelSize,
+  const std::string& geometryPath,
   const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize);
 
 /**

@@ -32,7 +32,8 @@ Eigen::Vector2d ParseSpacing(const std::string& text)
  *  RT Image's label or the file. */
 StereoGeometry GeometryFromDICOM(const GeometryOptions& options)
 {
-  if (!options.projectionMatrices.empty() || !options.intrinsics.empty() || !options.extrinsics.empty())
+  if (!options.projectionMatrices.empty() || !options.intrinsics.empty() || !options.extrinsics.empty() ||
+    !options.cameraCalibrations.empty())
     throw InputError("--dicom", "give DICOM X-rays or projection matrices or pinhole calibrations, not several");
   if (!options.pixelSpacing.empty() || !options.size.empty())
     throw InputError("--dicom", "DICOM X-rays carry their own pixel spacing and size: leave out --pixel-spacing and --size");
@@ -41,7 +42,7 @@ StereoGeometry GeometryFromDICOM(const GeometryOptions& options)
         std::to_string(options.names.size()));
   StereoGeometry geometry;
   geometry.name = "from DICOM X-ray tags";
-  geometry.isocenter = ParsePoint(options.isocenter, "--isocenter");
+  geometry.isocenter = ParsePoint(options.isocenter.empty() ? "0,0,0" : options.isocenter, "--isocenter");
   for (size_t v = 0; v < options.dicom.size(); ++v)
   {
     geometry.views.push_back(ReadXRayViewFromTags(options.dicom[v], geometry.isocenter, options.patientPosition));
@@ -71,13 +72,57 @@ StereoGeometry GeometryFromMatrices(const GeometryOptions& options)
   const auto [columns, rows] = ParseSize(options.size, "--size");
   StereoGeometry geometry;
   geometry.name = pinhole ? "from pinhole calibrations" : "from projection matrices";
-  geometry.isocenter = ParsePoint(options.isocenter, "--isocenter");
+  geometry.isocenter = ParsePoint(options.isocenter.empty() ? "0,0,0" : options.isocenter, "--isocenter");
   for (size_t v = 0; v < files.size(); ++v)
   {
     const std::string name = options.names.empty() ? std::string(1, static_cast<char>('A' + v)) : options.names[v];
     const ProjectionMatrix projection =
       pinhole ? ReadPinholeCalibration(options.intrinsics[v], files[v]) : ReadProjectionMatrix(files[v]);
     geometry.views.push_back(ViewFromProjectionMatrix(projection, spacing, { columns, rows }, geometry.isocenter, name, files[v]));
+  }
+  return geometry;
+}
+
+/** The imagers of --camera-calibration; the isocentre where their central rays pass closest
+ *  unless --isocenter gives it (a laboratory's origin is rarely where its cameras look). */
+StereoGeometry GeometryFromCameraCalibrations(const GeometryOptions& options)
+{
+  if (!options.projectionMatrices.empty() || !options.intrinsics.empty() || !options.extrinsics.empty())
+    throw InputError("--camera-calibration", "give camera calibrations or projection matrices or pinhole calibrations, not several");
+  if (!options.size.empty())
+    throw InputError("--size", "camera calibrations carry their image size: leave out --size");
+  if (options.pixelSpacing.empty() || options.pixelSpacing.find(',') != std::string::npos)
+    throw InputError("--pixel-spacing", "give one spacing MM with camera calibrations (the rows' follows from fx / fy)");
+  if (!options.names.empty() && options.names.size() != options.cameraCalibrations.size())
+    throw InputError("--names", "give one name per camera calibration (" + std::to_string(options.cameraCalibrations.size()) +
+        "), got " + std::to_string(options.names.size()));
+  const double spacing = ParseSpacing(options.pixelSpacing)[0];
+  std::vector<CameraCalibration> cameras;
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> centralRays;
+  for (const std::string& path : options.cameraCalibrations)
+  {
+    cameras.push_back(ReadCameraCalibration(path));
+    centralRays.emplace_back(cameras.back().Source(), cameras.back().Axis());
+  }
+  StereoGeometry geometry;
+  geometry.name = "from camera calibrations";
+  if (options.isocenter.empty())
+  {
+    double gap = 0.0;
+    geometry.isocenter = ClosestApproach(centralRays, &gap);
+    std::printf("isocentre (%.2f, %.2f, %.2f) mm: where the central rays pass closest", geometry.isocenter[0],
+      geometry.isocenter[1], geometry.isocenter[2]);
+    if (centralRays.size() == 2)
+      std::printf(", %.2f mm apart", gap);
+    std::printf(" (--isocenter overrides it)\n");
+  }
+  else
+    geometry.isocenter = ParsePoint(options.isocenter, "--isocenter");
+  for (size_t v = 0; v < cameras.size(); ++v)
+  {
+    const std::string name = options.names.empty() ? std::string(1, static_cast<char>('A' + v)) : options.names[v];
+    geometry.views.push_back(ViewFromProjectionMatrix(cameras[v].Projection(), cameras[v].PixelSpacing(spacing),
+      cameras[v].size, geometry.isocenter, name, options.cameraCalibrations[v]));
   }
   return geometry;
 }
@@ -124,7 +169,9 @@ int RunGeometry(const GeometryOptions& options)
     return CheckAgainstGeometry(options);
   if (options.output.empty())
     throw InputError("--out", "the geometry file to write is missing");
-  const StereoGeometry geometry = options.dicom.empty() ? GeometryFromMatrices(options) : GeometryFromDICOM(options);
+  const StereoGeometry geometry = !options.dicom.empty() ? GeometryFromDICOM(options)
+    : !options.cameraCalibrations.empty()                ? GeometryFromCameraCalibrations(options)
+                                                         : GeometryFromMatrices(options);
   // The views must make a geometry xpose can use (central rays on the panels, names distinct).
   ValidateGeometry(geometry, options.output);
   WriteStereoGeometry(geometry, options.output);

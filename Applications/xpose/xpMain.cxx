@@ -7,6 +7,9 @@ namespace
 {
 
 /** The registration method's options, bound to the settings the registration filter takes. */
+constexpr const char* VoxelSizeHelp = "A TIFF stack's voxel size x,y,z (mm): columns along x, rows along y, pages along z "
+                                      "(first page lowest); values proportional to attenuation, 0 air, 1000 water";
+
 void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
 {
   command->add_option("--bins", settings.bins, "MI histogram bins")->capture_default_str();
@@ -70,7 +73,11 @@ CLI::App* AddGeometryCommand(CLI::App& app, xp::GeometryOptions& options)
   geometryCommand->add_option("--pixel-spacing", options.pixelSpacing,
     "Detector pixel spacing, MM or COLUMN_MM,ROW_MM (with matrices)");
   geometryCommand->add_option("--size", options.size, "Detector COLSxROWS (with matrices)");
-  geometryCommand->add_option("--isocenter", options.isocenter, "Room isocentre x,y,z (mm)")->capture_default_str();
+  geometryCommand->add_option("--camera-calibration", options.cameraCalibrations,
+    "Or camera calibrations as XMALab exports them (image size, camera matrix K, rotation R, translation t; "
+    "x_camera = R X + t), one per imager; with --pixel-spacing MM");
+  geometryCommand->add_option("--isocenter", options.isocenter,
+    "Room isocentre x,y,z (mm); default 0,0,0, or with --camera-calibration where the central rays pass closest");
   geometryCommand->add_option("--check", options.check,
     "With --dicom: report how far the X-rays' tags are from this geometry file (exit 2 beyond 0.5 mm / 0.1 deg)");
   geometryCommand->add_option("--out", options.output, "The geometry JSON to write");
@@ -80,8 +87,9 @@ CLI::App* AddGeometryCommand(CLI::App& app, xp::GeometryOptions& options)
 CLI::App* AddDRRCommand(CLI::App& app, xp::DRROptions& options)
 {
   CLI::App* drrCommand = app.add_subcommand("drr", "Render a DRR per imager of the geometry");
-  drrCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  drrCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack")->required();
   drrCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  drrCommand->add_option("--voxel-size", options.voxelSize, VoxelSizeHelp);
   drrCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON (GEOMETRY.md)")->required();
   drrCommand->add_option("--size", options.size, "Output COLSxROWS on the same panel (default: the panel's)");
   drrCommand->add_option("--pose", options.pose, "Patient misalignment tx,ty,tz,pitch,roll,yaw (mm, degrees, room)")
@@ -155,14 +163,18 @@ CLI::App* AddSimulateCommand(CLI::App& app, xp::SimulateOptions& options)
 CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
 {
   CLI::App* registerCommand = app.add_subcommand("register", "Find the patient's 6-DOF misalignment from the stereo X-rays");
-  registerCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz (or --pacs)");
+  registerCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (or --pacs)");
   registerCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  registerCommand->add_option("--voxel-size", options.voxelSize, VoxelSizeHelp);
   registerCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
-  registerCommand->add_option("--xray", options.xrays, "X-ray: grey PNG (8 or 16 bits) or DICOM, one per imager in order (or --pacs)");
+  registerCommand->add_option("--xray", options.xrays, "X-ray: grey PNG or TIFF (8 or 16 bits) or DICOM, one per imager in order (or --pacs)");
   registerCommand->add_option("--roi", options.rois, "User ROI PNG per X-ray (non-zero = use)");
   registerCommand->add_flag("!--no-entropy-mask", options.settings.entropyMask, "Register the whole image (no entropy mask)");
   registerCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
   registerCommand->add_option("--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  registerCommand->add_option("--initial-pose", options.initialPose,
+    "Start the search here: tx,ty,tz,pitch,roll,yaw (mm, degrees), the terms of result.json's misalignment; "
+    "--max-translation and --max-rotation then bound the change from it");
   registerCommand->add_flag("--remove-table", options.removeTable,
     "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
   AddMethodOptions(registerCommand, options.settings);

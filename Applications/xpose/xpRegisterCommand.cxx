@@ -109,7 +109,7 @@ int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::str
 RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
 {
   RegistrationInputs inputs;
-  inputs.setup = MakeDRRSetup(options.ct, options.series, options.geometry, options.isocenterInCT, options.muWater,
+  inputs.setup = MakeDRRSetup(options.ct, options.series, options.voxelSize, options.geometry, options.isocenterInCT, options.muWater,
     "trilinear", 0.0);
   if (options.removeTable)
   {
@@ -369,6 +369,8 @@ int RunRegister(const RegisterOptions& options)
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
   CheckRegistrationSettings(options.settings);
+  if (!options.initialPose.empty())
+    Pose::Parse(options.initialPose, "--initial-pose"); // checked before the CT is read
   // Output folders are checked before the work, not after it: a registration whose result
   // cannot be written must not run for seconds and then fail.
   StagedOutputDirectory::CheckWritable(options.outputDirectory);
@@ -398,7 +400,10 @@ int RunRegister(const RegisterOptions& options)
   registration->SetPatientSetup(setup.patient);
   registration->SetMuWater(options.muWater);
   registration->SetShrinkFactor(inputs.shrinkFactor);
-  registration->SetSettings(options.settings);
+  StereoRegistrationSettings settings = options.settings;
+  if (!options.initialPose.empty())
+    settings.initialPose = Pose::Parse(options.initialPose, "--initial-pose");
+  registration->SetSettings(settings);
   const StageLogger logger(registration);
   registration->Update();
   const StereoRegistrationResult& result = registration->GetResult();

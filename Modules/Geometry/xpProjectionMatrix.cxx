@@ -4,6 +4,8 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -142,6 +144,118 @@ ProjectionMatrix ReadPinholeCalibration(const std::string& intrinsicsPath, const
   if (!((rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-6 && rotation.determinant() > 0.0))
     throw InputError(extrinsicsPath, "the rotation R of [R | t] is not a rotation (orthonormal, determinant 1, within 1e-6)");
   return intrinsics * pose;
+}
+
+ProjectionMatrix CameraCalibration::Projection() const
+{
+  ProjectionMatrix pose;
+  pose << this->rotation, this->translation;
+  return this->intrinsics * pose;
+}
+
+Eigen::Vector2d CameraCalibration::PixelSpacing(double spacingMM) const
+{
+  return Eigen::Vector2d(spacingMM, spacingMM * this->intrinsics(0, 0) / this->intrinsics(1, 1));
+}
+
+CameraCalibration ReadCameraCalibration(const std::string& path)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw InputError(path, "cannot open the camera calibration file");
+  const std::vector<std::pair<std::string, size_t>> sections{ { "image size", 2 }, { "camera matrix", 9 },
+    { "rotation", 9 }, { "translation", 3 } };
+  std::vector<std::vector<double>> numbers(sections.size());
+  int current = -1;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number)
+  {
+    std::string lower;
+    for (char c : line)
+      lower += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const size_t first = lower.find_first_not_of(" \t\r");
+    if (first == std::string::npos)
+      continue;
+    if (std::isalpha(static_cast<unsigned char>(lower[first])))
+    {
+      current = -1;
+      for (size_t k = 0; k < sections.size(); ++k)
+        if (lower.compare(first, sections[k].first.size(), sections[k].first) == 0)
+          current = static_cast<int>(k);
+      if (current < 0)
+        throw InputError(path, "line " + std::to_string(number) + ": unknown section '" + line +
+            "' (expected image size, camera matrix, rotation, translation)");
+      continue;
+    }
+    if (current < 0)
+      throw InputError(path, "line " + std::to_string(number) + ": numbers before any section heading");
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream words(line);
+    for (std::string word; words >> word;)
+    {
+      size_t used = 0;
+      double value = 0.0;
+      try
+      {
+        value = std::stod(word, &used);
+      }
+      catch (const std::exception&)
+      {
+      }
+      if (used != word.size() || !std::isfinite(value))
+        throw InputError(path, "line " + std::to_string(number) + ": '" + word + "' is not a finite number");
+      numbers[static_cast<size_t>(current)].push_back(value);
+    }
+  }
+  for (size_t k = 0; k < sections.size(); ++k)
+    if (numbers[k].size() != sections[k].second)
+      throw InputError(path, sections[k].first + ": " + std::to_string(numbers[k].size()) + " numbers, expected " +
+          std::to_string(sections[k].second));
+  CameraCalibration calibration;
+  calibration.size = Eigen::Vector2i(static_cast<int>(numbers[0][0]), static_cast<int>(numbers[0][1]));
+  if (calibration.size.minCoeff() < 1 || calibration.size.maxCoeff() > 16384 || numbers[0][0] != calibration.size[0] ||
+    numbers[0][1] != calibration.size[1])
+    throw InputError(path, "image size: expected two whole numbers from 1 to 16384");
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+    {
+      calibration.intrinsics(r, c) = numbers[1][static_cast<size_t>(r) * 3 + c];
+      calibration.rotation(r, c) = numbers[2][static_cast<size_t>(r) * 3 + c];
+    }
+  calibration.translation = Eigen::Vector3d(numbers[3][0], numbers[3][1], numbers[3][2]);
+  const Eigen::Matrix3d& rotation = calibration.rotation;
+  if (!((rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-6 && rotation.determinant() > 0.0))
+    throw InputError(path, "rotation: not a rotation (orthonormal, determinant 1, within 1e-6)");
+  if (!(calibration.intrinsics(0, 0) > 0.0 && calibration.intrinsics(1, 1) > 0.0))
+    throw InputError(path, "camera matrix: the focal lengths (first two diagonal entries) must be positive");
+  return calibration;
+}
+
+Eigen::Vector3d ClosestApproach(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& lines, double* gapMM)
+{
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d right = Eigen::Vector3d::Zero();
+  for (const auto& [point, direction] : lines)
+  {
+    const Eigen::Vector3d d = direction.normalized();
+    const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - d * d.transpose();
+    normal += across;
+    right += across * point;
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(normal);
+  if (lines.size() < 2 || !(eigen.eigenvalues().minCoeff() > 1e-9 * lines.size()))
+    throw InputError("central rays", "the imagers' central rays are parallel: they do not meet anywhere");
+  const Eigen::Vector3d closest = normal.ldlt().solve(right);
+  if (gapMM)
+  {
+    *gapMM = 0.0;
+    if (lines.size() == 2)
+    {
+      const Eigen::Vector3d n = lines[0].second.cross(lines[1].second).normalized();
+      *gapMM = std::abs(n.dot(lines[1].first - lines[0].first));
+    }
+  }
+  return closest;
 }
 
 } // namespace xp

@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace xp
@@ -45,6 +46,38 @@ VTKXPGEOMETRY_EXPORT ProjectionMatrix ReadProjectionMatrix(const std::string& pa
 /** P = K [R | t] from a pinhole calibration: K (3 rows of 3, pixels) in one text file, the Room
  *  to camera transform [R | t] (3 rows of 4, mm) in another; R must be a rotation. */
 VTKXPGEOMETRY_EXPORT ProjectionMatrix ReadPinholeCalibration(const std::string& intrinsicsPath, const std::string& extrinsicsPath);
+
+/**
+ * A camera calibration as XMALab exports it ("MayaCam 2.0"): sections headed `image size`
+ * (columns,rows), `camera matrix` (K, 3 rows, pixels), `rotation` (R, 3 rows) and `translation`
+ * (t, mm), numbers separated by commas or spaces; x_camera = R X + t for a Room point X, and
+ * pixel (u, v) = K x_camera / z (v counting rows downward, OpenCV's convention).
+ */
+struct VTKXPGEOMETRY_EXPORT CameraCalibration
+{
+  Eigen::Vector2i size = Eigen::Vector2i::Zero(); ///< columns, rows
+  Eigen::Matrix3d intrinsics = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+
+  ProjectionMatrix Projection() const;
+  Eigen::Vector3d Source() const { return -this->rotation.transpose() * this->translation; }
+  /** The optical axis: the direction from the source through the principal point. */
+  Eigen::Vector3d Axis() const { return this->rotation.row(2).transpose(); }
+  /** Pixel spacing (columns, rows) that makes both focal lengths one source-to-panel distance:
+   *  `spacingMM` between columns, scaled by fx / fy between rows. */
+  Eigen::Vector2d PixelSpacing(double spacingMM) const;
+};
+
+/** Reads a CameraCalibration; throws xp::InputError naming the file and the section that is
+ *  missing, holds another count of numbers, or a rotation that is not one (1e-6). */
+VTKXPGEOMETRY_EXPORT CameraCalibration ReadCameraCalibration(const std::string& path);
+
+/** The point closest to every line (point, direction) in the least-squares sense, and for two
+ *  lines the distance between them at their closest approach (0 for more lines). Throws
+ *  xp::InputError when the lines are parallel. */
+VTKXPGEOMETRY_EXPORT Eigen::Vector3d ClosestApproach(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& lines,
+  double* gapMM = nullptr);
 
 } // namespace xp
 

@@ -2,6 +2,7 @@
 
 #include "xpDICOMStructure.h"
 #include "xpError.h"
+#include "xpTIFF.h"
 #include "xpImageIO.h"
 
 #include <gdcmImage.h>
@@ -131,7 +132,9 @@ vtkSmartPointer<vtkImageData> ReadXRayImage(const std::string& path)
   {
     throw InputError(path, "no such X-ray file");
   }
-  return IsPNG(path) ? ReadXRayPNG(path) : ReadXRayDICOM(path);
+  if (IsPNG(path))
+    return ReadXRayPNG(path);
+  return IsTIFF(path) ? ReadXRayTIFF(path) : ReadXRayDICOM(path);
 }
 
 } // namespace xp

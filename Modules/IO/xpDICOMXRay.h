@@ -24,7 +24,8 @@ namespace xp
  *  xp::InputError naming the file. */
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayDICOM(const std::string& path);
 
-/** An X-ray from a grey PNG or a DICOM DX/CR/RT Image file, chosen by content, values as stored. */
+/** An X-ray from a grey PNG, a grey one-page TIFF (8 or 16 bits; xpImageIO.h) or a DICOM
+ *  DX/CR/RT Image file, chosen by content, values as stored. */
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayImage(const std::string& path);
 
 } // namespace xp

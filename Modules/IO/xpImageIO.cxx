@@ -2,6 +2,7 @@
 
 #include "xpError.h"
 #include "xpPNG.h"
+#include "xpTIFF.h"
 #include "xpXRayView.h"
 
 #include <png.h>
@@ -98,6 +99,25 @@ vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path)
   {
     const uint16_t* in = png.samples.data() + static_cast<size_t>(row) * png.columns;
     std::copy(in, in + png.columns, out + static_cast<size_t>(png.rows - 1 - row) * png.columns);
+  }
+  return image;
+}
+
+vtkSmartPointer<vtkImageData> ReadXRayTIFF(const std::string& path)
+{
+  const DecodedTIFF tiff = DecodeTIFF(path);
+  if (tiff.pages.size() != 1)
+  {
+    throw InputError(path, std::to_string(tiff.pages.size()) + " pages: an X-ray is one page (a volume is read with --voxel-size)");
+  }
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->SetDimensions(tiff.columns, tiff.rows, 1);
+  image->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+  uint16_t* out = static_cast<uint16_t*>(image->GetScalarPointer());
+  for (int row = 0; row < tiff.rows; ++row) // TIFF row 0 (detector row 0) -> VTK row rows-1
+  {
+    const uint16_t* in = tiff.pages[0].data() + static_cast<size_t>(row) * tiff.columns;
+    std::copy(in, in + tiff.columns, out + static_cast<size_t>(tiff.rows - 1 - row) * tiff.columns);
   }
   return image;
 }

@@ -45,6 +45,13 @@ VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path
  */
 VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path);
 
+/**
+ * Reads an X-ray stored as a grey one-page TIFF, 8 or 16 bits (white-is-zero turned round),
+ * values as stored, in VTK row order. Throws xp::InputError naming the file when it is
+ * unreadable, not grey, tiled, or holds more than one page.
+ */
+VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayTIFF(const std::string& path);
+
 /** The MD5 of a file's bytes as 32 hex digits: identifies an input file in a result record. */
 VTKXPIO_EXPORT std::string FileMD5(const std::string& path);
 

@@ -105,15 +105,24 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
   std::vector<GateFailure> failures;
   if (!evidence.converged)
     failures.push_back({ GateCode::NotConverged, -1, "the optimiser did not converge (" + evidence.stopReason + ")" });
-  // Limits on the whole motion: the translation's length and the rotation's angle about its own
-  // axis, as the table would move. Every comparison is written so that a NaN fails it.
-  const Pose& m = evidence.misalignment;
+  // Limits on the whole motion from the start: the translation's length and the rotation's angle
+  // about its own axis, as the table would move. Every comparison is written so that a NaN fails it.
+  // From an initial pose: how far the point it put at the isocentre (the volume's centre, by
+  // default) moved, and the angle of the relative rotation.
+  const bool fromZero = evidence.start.Parameters() == Pose{}.Parameters();
+  Pose m = evidence.misalignment;
+  if (!fromZero)
+  {
+    m = Pose::FromTransform(Eigen::Isometry3d(m.Rotation() * evidence.start.Rotation().transpose()), Eigen::Vector3d::Zero());
+    m.translation = evidence.misalignment.translation - evidence.start.translation;
+  }
+  const std::string what = fromZero ? "the correction's" : "the change from the initial pose:";
   if (!(m.translation.norm() <= settings.maxTranslation))
     failures.push_back({ GateCode::TranslationTooLarge, -1,
-      Format("the correction's translation (%.1f mm) exceeds %.1f mm", m.translation.norm(), settings.maxTranslation) });
+      what + Format(" translation (%.1f mm) exceeds %.1f mm", m.translation.norm(), settings.maxTranslation) });
   if (!(m.RotationAngle() <= settings.maxRotation))
     failures.push_back({ GateCode::RotationTooLarge, -1,
-      Format("the correction's rotation (%.1f degrees) exceeds %.1f degrees", m.RotationAngle(), settings.maxRotation) });
+      what + Format(" rotation (%.1f degrees) exceeds %.1f degrees", m.RotationAngle(), settings.maxRotation) });
   if (evidence.ambiguous)
     failures.push_back({ GateCode::AmbiguousPose, -1,
       Format("two searches, from the pre-alignment and 1.5 mm / 1.5 degrees beside it, ended %.2f mm and %.2f degrees "

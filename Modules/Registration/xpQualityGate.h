@@ -72,6 +72,8 @@ VTKXPREGISTRATION_EXPORT std::vector<std::string> GateMessages(const std::vector
 struct GateEvidence
 {
   Pose misalignment;
+  /** Where the registration started: the limits on the motion bound the change from there. */
+  Pose start;
   bool converged = false;
   std::string stopReason;         ///< the optimiser's, when it did not converge
   /** Two refined search ends apart and equally good (StereoRegistrationSettings). */

@@ -168,6 +168,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   RegistrationRecord record;
   record.ok = result.ok;
   record.misalignment = result.misalignment;
+  record.initialPose = result.start;
   record.correction = result.correction;
   record.viewNames = viewNames;
   record.similarity = result.mutualInformation;
@@ -201,6 +202,7 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   root["status"] = r.ok ? "ok" : "failed";
   root["misalignment"] = PoseValue(r.misalignment);
   root["correction"] = PoseValue(r.correction);
+  root["initial_pose"] = PoseValue(r.initialPose);
   root["convention"] = CorrectionConvention;
   root["views"] = List(r.viewNames);
   root["similarity"] = PerView(r.viewNames, r.similarity);
@@ -300,6 +302,8 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.ok = status == "ok";
   r.misalignment = f.PoseAt("misalignment");
   r.correction = f.PoseAt("correction");
+  if (f.Has("initial_pose")) // absent in records written before --initial-pose
+    r.initialPose = f.PoseAt("initial_pose");
   r.viewNames = f.Texts("views");
   r.similarity = f.PerViewNumbers("similarity", r.viewNames);
   r.objective = f.Number("similarity.objective");

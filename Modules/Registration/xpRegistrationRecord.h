@@ -41,6 +41,7 @@ struct RegistrationRecord
 {
   bool ok = false;
   Pose misalignment, correction;
+  Pose initialPose; ///< where the search began (--initial-pose; zero: the planned set-up)
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
   /** Per view, when the CT coverage mask was on: the anatomy each X-ray shows beyond the CT's

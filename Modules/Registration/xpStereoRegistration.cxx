@@ -449,14 +449,15 @@ double CorrelationWithDRR(const std::vector<uint16_t>& xray, const std::vector<u
  * mask kept noise-picked blobs of it): NoiseScaledLevels.
  */
 WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const AttenuationVolume& volume,
-  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, bool pyramid, StereoRegistrationResult& result)
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const Pose& start, bool pyramid,
+  StereoRegistrationResult& result)
 {
   WorkingXRays working;
   working.ranked = views;
   for (RegistrationView& item : working.ranked)
     item.xray = EqualizedLevels(item.xray, item.mask);
   StereoSimilarity probe(volume, plannedCTToRoom, isocenter, AtCoarseSize(working.ranked, pyramid), 32, { false, 0.0 });
-  probe.Evaluate(Pose{});
+  probe.Evaluate(start);
   result.drrCount += probe.RenderedDRRs();
   for (size_t v = 0; v < working.ranked.size(); ++v)
   {
@@ -511,7 +512,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
   WorkingXRays working;
   if (settings.rankedXRays)
-    working = RankedXRays(inputViews, coarseVolume, plannedCTToRoom, isocenter, pyramid, result);
+    working = RankedXRays(inputViews, coarseVolume, plannedCTToRoom, isocenter, settings.initialPose, pyramid, result);
   else
   {
     working.ranked = inputViews;
@@ -522,7 +523,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const std::vector<RegistrationView>& views = working.ranked;
   const std::vector<RegistrationView> coarseViews = AtCoarseSize(views, pyramid);
   StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins, { settings.equalizedLevels, 0.0 });
-  result.prealignment = PreAlign(coarse, Pose{}, isocenter);
+  result.start = settings.initialPose;
+  result.prealignment = PreAlign(coarse, settings.initialPose, isocenter);
   result.drrCount += coarse.RenderedDRRs();
   result.prealignSeconds = Since(start);
 
@@ -640,6 +642,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // 4. Quality gate, on what each view says at the result.
   progress.Begin("quality gate", 0.95, 1.0);
   evidence.misalignment = result.misalignment;
+  evidence.start = settings.initialPose;
   evidence.converged = fineResult.converged;
   evidence.stopReason = fineResult.stopReason;
   evidence.searchApartMM = result.searchDisagreementMM;

@@ -32,6 +32,9 @@ struct StereoRegistrationSettings
   /** The half-size stages render from a half-resolution CT only when its voxels stay within
    *  this (mm); coarser voxels blur the bone edges the coarse search follows. */
   double maxHalvedVoxelMM = 2.5;
+  /** Where the search starts (the misalignment's terms: Room mm and degrees about the
+   *  isocentre); the gate's maxTranslation and maxRotation bound the change from it. */
+  Pose initialPose;
   int bins = 32;                 ///< MI histogram bins
   /** MI on equalised levels (xpStereoSimilarity.h); false: on 12-bit transmission as it is. */
   bool equalizedLevels = true;
@@ -111,6 +114,7 @@ struct StereoRegistrationResult
   bool ok = false;
   std::vector<GateFailure> failures; ///< why the gate failed (xpQualityGate.h); empty when ok
   std::vector<std::string> Reasons() const; ///< the failures' messages
+  Pose start;        ///< the settings' initial pose, where the search began
   Pose misalignment;
   Pose correction;                   ///< misalignment.Inverse(): what the table should do
   PreAlignmentResult prealignment;

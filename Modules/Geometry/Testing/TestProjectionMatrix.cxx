@@ -133,3 +133,104 @@ TEST(ProjectionMatrix, ReadsTwelveNumbersAndNamesTheFileOtherwise)
     }
   }
 }
+
+namespace
+{
+/** A camera 1000 mm from the origin looking along `axis`, its K with fx != fy (by 0.25 %, as a
+ *  real calibration's) and the principal point off the image centre. */
+xp::CameraCalibration TestCamera(const Eigen::Vector3d& axis, const Eigen::Vector3d& up)
+{
+  xp::CameraCalibration camera;
+  camera.size = Eigen::Vector2i(640, 480);
+  camera.intrinsics << 5000.0, 0.0, 300.5, 0.0, 5012.5, 250.25, 0.0, 0.0, 1.0;
+  const Eigen::Vector3d z = axis.normalized(), x = up.cross(z).normalized(), y = z.cross(x);
+  camera.rotation.row(0) = x.transpose();
+  camera.rotation.row(1) = y.transpose();
+  camera.rotation.row(2) = z.transpose();
+  const Eigen::Vector3d source = Eigen::Vector3d(10.0, -20.0, 30.0) - 1000.0 * z;
+  camera.translation = -camera.rotation * source;
+  return camera;
+}
+
+void WriteCalibration(const xp::CameraCalibration& c, const std::string& path)
+{
+  std::ofstream out(path);
+  out.precision(17);
+  out << "image size\n" << c.size[0] << "," << c.size[1] << "\n\ncamera matrix\n";
+  for (int r = 0; r < 3; ++r)
+    out << c.intrinsics(r, 0) << "," << c.intrinsics(r, 1) << "," << c.intrinsics(r, 2) << "\n";
+  out << "\nrotation\n";
+  for (int r = 0; r < 3; ++r)
+    out << c.rotation(r, 0) << "," << c.rotation(r, 1) << "," << c.rotation(r, 2) << "\n";
+  out << "\ntranslation\n" << c.translation[0] << "\n" << c.translation[1] << "\n" << c.translation[2] << "\n";
+}
+} // namespace
+
+// The view made from an XMALab calibration projects every point where the pinhole model puts it
+// (OpenCV: u = fx x/z + cx, v = fy y/z + cy, v down), although fx != fy: the rows' spacing takes
+// the difference. A flipped axis, a transposed R or the wrong sign of t moves the points.
+TEST(CameraCalibration, ViewProjectsAsThePinholeModel)
+{
+  const xp::CameraCalibration written = TestCamera(Eigen::Vector3d(1.0, 0.3, -0.2), Eigen::Vector3d(0.0, 0.0, 1.0));
+  WriteCalibration(written, "cam-good.txt");
+  const xp::CameraCalibration camera = xp::ReadCameraCalibration("cam-good.txt");
+  EXPECT_EQ(camera.size, written.size);
+  EXPECT_LT((camera.rotation - written.rotation).norm(), 1e-12);
+  EXPECT_LT((camera.Source() - (Eigen::Vector3d(10.0, -20.0, 30.0) - 1000.0 * written.Axis())).norm(), 1e-9);
+  const Eigen::Vector2d spacing = camera.PixelSpacing(0.2);
+  EXPECT_NEAR(spacing[1] / spacing[0], 5000.0 / 5012.5, 1e-12);
+  const xp::XRayView view = xp::ViewFromProjectionMatrix(
+    camera.Projection(), spacing, camera.size, Eigen::Vector3d(10.0, -20.0, 30.0), "A", "cam-good.txt");
+  EXPECT_NEAR(view.SourceToPanelDistance(), 5000.0 * 0.2, 1e-6);
+  for (const Eigen::Vector3d& point : { Eigen::Vector3d(10.0, -20.0, 30.0), Eigen::Vector3d(40.0, 25.0, -10.0),
+         Eigen::Vector3d(-30.0, 5.0, 60.0) })
+  {
+    const Eigen::Vector3d c = camera.rotation * point + camera.translation;
+    const Eigen::Vector2d pinhole(5000.0 * c[0] / c[2] + 300.5, 5012.5 * c[1] / c[2] + 250.25);
+    EXPECT_LT((view.Project(point) - pinhole).norm(), 1e-6) << point.transpose();
+  }
+}
+
+TEST(CameraCalibration, IncompleteOrWrongFilesAreRefusedNamingTheSection)
+{
+  const xp::CameraCalibration good = TestCamera(Eigen::Vector3d(0.0, 1.0, 0.0), Eigen::Vector3d(0.0, 0.0, 1.0));
+  WriteCalibration(good, "cam-ok.txt");
+  std::ifstream in("cam-ok.txt");
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto refused = [](const std::string& name, const std::string& content, const std::string& field)
+  {
+    std::ofstream(name) << content;
+    try
+    {
+      xp::ReadCameraCalibration(name);
+      ADD_FAILURE() << name << " was read";
+    }
+    catch (const xp::InputError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  refused("cam-no-translation.txt", text.substr(0, text.find("translation")), "translation");
+  std::string scaled = text;
+  scaled.replace(scaled.find("rotation\n") + 9, 1, "2"); // R's first entry doubled or more
+  refused("cam-scaled.txt", scaled, "rotation");
+  refused("cam-word.txt", "image size\n640,abc\n", "abc");
+  refused("cam-unknown.txt", "lens\n1,2\n", "lens");
+  EXPECT_THROW(xp::ReadCameraCalibration("cam-missing.txt"), xp::InputError);
+}
+
+// Two rays 4 mm apart at their closest: the midpoint of the common perpendicular, and the gap.
+TEST(CameraCalibration, ClosestApproachOfCentralRays)
+{
+  double gap = 0.0;
+  const Eigen::Vector3d point = xp::ClosestApproach(
+    { { Eigen::Vector3d(-500.0, 0.0, 2.0), Eigen::Vector3d(1.0, 0.0, 0.0) },
+      { Eigen::Vector3d(7.0, -300.0, -2.0), Eigen::Vector3d(0.0, 2.0, 0.0) } },
+    &gap);
+  EXPECT_LT((point - Eigen::Vector3d(7.0, 0.0, 0.0)).norm(), 1e-9) << point.transpose();
+  EXPECT_NEAR(gap, 4.0, 1e-9);
+  EXPECT_THROW(xp::ClosestApproach({ { Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX() },
+                 { Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitX() } }),
+    xp::InputError);
+}

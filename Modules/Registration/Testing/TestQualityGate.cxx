@@ -171,3 +171,23 @@ TEST(QualityGate, InvalidLimitsAreRefusedAndCodesHaveStableNames)
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::AmbiguousPose), "ambiguous_pose");
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::TooFewPixels), "too_few_pixels");
 }
+
+// From an initial pose, the limits bound the change from it, not the distance from zero: a
+// bone 180 mm from the isocentre that moved 2 mm passes, a result 52 mm from its start fails.
+TEST(QualityGate, MotionLimitsCountFromTheInitialPose)
+{
+  xp::GateEvidence e = GoodEvidence();
+  e.start = xp::Pose::Parse("150,-60,40,80,-30,120", "start");
+  e.misalignment = xp::Pose::Parse("151,-61,41.5,80.5,-30,119", "result");
+  EXPECT_TRUE(Codes(e).empty());
+  e.misalignment = xp::Pose::Parse("180,-30,70,80,-30,120", "result"); // 52 mm from the start
+  const std::vector<xp::GateFailure> failures = xp::CheckQuality(e, {});
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0].code, xp::GateCode::TranslationTooLarge);
+  EXPECT_NE(failures[0].message.find("initial pose"), std::string::npos) << failures[0].message;
+  e.misalignment = xp::Pose::Parse("150,-60,40,80,-30,131", "result"); // 11 degrees about z from the start
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::RotationTooLarge });
+  e.start = xp::Pose{};
+  e.misalignment = xp::Pose::Parse("151,-61,41.5,80.5,-30,119", "result");
+  EXPECT_EQ(Codes(e), (Codes_t{ xp::GateCode::TranslationTooLarge, xp::GateCode::RotationTooLarge }));
+}
