@@ -104,6 +104,7 @@ struct RegisterOptions
   std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
   std::string isocenterInCT;
   std::string initialPose;          ///< "tx,ty,tz,pitch,roll,yaw"; empty = the planned set-up
+  bool globalSearch = false;        ///< find the start (xpGlobalSearch.h); always for a TIFF volume without initialPose
   double muWater = WaterAttenuationPerMM;
   bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
   StereoRegistrationSettings settings; ///< the method and its quality gate, as the options set them

@@ -175,6 +175,8 @@ CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
   registerCommand->add_option("--initial-pose", options.initialPose,
     "Start the search here: tx,ty,tz,pitch,roll,yaw (mm, degrees), the terms of result.json's misalignment; "
     "--max-translation and --max-rotation then bound the change from it");
+  registerCommand->add_flag("--global-search", options.globalSearch,
+    "Find the start over all orientations and places in both views (always for a TIFF volume without --initial-pose)");
   registerCommand->add_flag("--remove-table", options.removeTable,
     "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
   AddMethodOptions(registerCommand, options.settings);

@@ -8,6 +8,7 @@
 
 #include "xpAttenuationVolume.h"
 #include "xpError.h"
+#include "xpGlobalSearch.h"
 #include "xpDICOMXRay.h"
 #include "xpImageIO.h"
 #include "xpImageRows.h"
@@ -141,6 +142,31 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
       rois.push_back(inputs.rois.back());
     }
   }
+  // An image intensifier's black corners are no anatomy: its disc joins the ROI.
+  bool anyField = false;
+  for (size_t v = 0; v < panels.size(); ++v)
+  {
+    inputs.fields.push_back(FindCircularField(RowsTopFirst<uint16_t>(xrays[v]), panels[v].Columns(), panels[v].Rows()));
+    anyField = anyField || inputs.fields.back().found;
+  }
+  if (anyField)
+  {
+    for (size_t v = 0; v < panels.size(); ++v)
+    {
+      std::vector<uint8_t> roi = rois.empty() ? std::vector<uint8_t>(static_cast<size_t>(panels[v].Columns()) * panels[v].Rows(), 1)
+                                              : RowsTopFirst<uint8_t>(rois[v]);
+      const CircularField& field = inputs.fields[v];
+      for (size_t i = 0; field.found && i < roi.size(); ++i)
+        roi[i] &= field.mask[i];
+      if (static_cast<size_t>(v) < inputs.rois.size())
+        inputs.rois[v] = ImageFromRowsTopFirst(roi, panels[v].Columns(), panels[v].Rows());
+      else
+        inputs.rois.push_back(ImageFromRowsTopFirst(roi, panels[v].Columns(), panels[v].Rows()));
+    }
+    rois.clear();
+    for (const auto& roi : inputs.rois)
+      rois.push_back(roi);
+  }
   // The registration filter's own checks, here before any work and naming the files.
   inputs.views = vtkXPStereoRegistrationFilter::PrepareViews(setup.geometry, xrays, rois, inputs.shrinkFactor, options.xrays);
   vtkImageData* ct = setup.ct.image;
@@ -151,6 +177,36 @@ RegistrationInputs LoadRegistrationInputs(const RegisterOptions& options)
 
 namespace
 {
+
+/** A TIFF volume has no planned set-up to start from: the global search finds the start. */
+bool UsesGlobalSearch(const RegisterOptions& options)
+{
+  const auto tiff = [](const std::string& path)
+  {
+    const std::string lower = [&] { std::string s = path; for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c))); return s; }();
+    return lower.size() > 4 && (lower.rfind(".tif") == lower.size() - 4 || lower.rfind(".tiff") == lower.size() - 5);
+  };
+  return options.globalSearch || (options.initialPose.empty() && tiff(options.ct));
+}
+
+/** The start of a registration that has none (xpGlobalSearch.h): candidates found over every
+ *  orientation, each refined; the best refined end. */
+Pose FoundStart(const RegistrationInputs& inputs, const RegisterOptions& options)
+{
+  const Clock::time_point start = Clock::now();
+  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(inputs.setup.ct.image, options.muWater);
+  const std::vector<GlobalCandidate> candidates = FindGlobalStarts(*volume, inputs.planned, inputs.setup.geometry.isocenter,
+    inputs.planned * ImageCenter(inputs.setup.ct.image), inputs.views);
+  std::printf("global search: %zu candidate starts (%.2f s)\n", candidates.size(), Since(start));
+  const GlobalStart found =
+    RefineGlobalCandidates(*volume, inputs.planned, inputs.setup.geometry.isocenter, inputs.views, options.settings, candidates);
+  for (size_t c = 0; c < candidates.size(); ++c)
+    std::printf("  from %s (correlation %.3f, rays %.1f mm apart): objective %.4f at %s\n",
+      candidates[c].pose.ToString().c_str(), candidates[c].score, candidates[c].raysApartMM, found.objectives[c],
+      found.refined[c].ToString().c_str());
+  std::printf("global search: start %s (%.2f s)\n", found.pose.ToString().c_str(), Since(start));
+  return found.pose;
+}
 
 /** What the registration found at each stage, after the filter has run. */
 void PrintStages(const StereoRegistrationResult& result, const std::vector<RegistrationView>& views)
@@ -179,6 +235,7 @@ RegistrationRecordInputs RecordedInputs(const RegisterOptions& options)
   RegistrationRecordInputs in;
   in.ct = absolute(options.ct);
   in.series = options.series;
+  in.voxelSize = options.voxelSize;
   in.geometry = absolute(options.geometry);
   for (const std::string& xray : options.xrays)
   {
@@ -388,6 +445,11 @@ int RunRegister(const RegisterOptions& options)
     inputs.views[0].view.Columns(), inputs.views[0].view.Rows(), readSeconds);
   if (options.removeTable)
     std::printf("table: %lld voxels outside the body set to air\n", inputs.tableVoxelsRemoved);
+  for (size_t v = 0; v < inputs.fields.size(); ++v)
+    if (inputs.fields[v].found)
+      std::printf("view %s: an image intensifier's circular field, centre (%.0f, %.0f) px, radius %.0f px: its outside is "
+                  "left out\n", inputs.views[v].view.name.c_str(), inputs.fields[v].center[0], inputs.fields[v].center[1],
+        inputs.fields[v].radius);
 
   // The method: the registration filter (Modules/Registration).
   vtkNew<vtkXPStereoRegistrationFilter> registration;
@@ -403,6 +465,8 @@ int RunRegister(const RegisterOptions& options)
   StereoRegistrationSettings settings = options.settings;
   if (!options.initialPose.empty())
     settings.initialPose = Pose::Parse(options.initialPose, "--initial-pose");
+  else if (UsesGlobalSearch(options))
+    settings.initialPose = FoundStart(inputs, options);
   registration->SetSettings(settings);
   const StageLogger logger(registration);
   registration->Update();

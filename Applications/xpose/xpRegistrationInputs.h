@@ -2,6 +2,7 @@
 #ifndef xpRegistrationInputs_h
 #define xpRegistrationInputs_h
 
+#include "xpFieldOfView.h"
 #include "xpCommands.h"
 #include "xpDRRSetup.h"
 
@@ -27,6 +28,9 @@ struct RegistrationInputs
   Eigen::Vector3d isoInCT = Eigen::Vector3d::Zero();
   Eigen::Isometry3d planned = Eigen::Isometry3d::Identity(); ///< CT (LPS) -> Room, planned set-up
   long long tableVoxelsRemoved = 0;       ///< with --remove-table: voxels outside the body set to air
+  /** Per X-ray: the image intensifier's circular field found in it (xpFieldOfView.h), whose
+   *  outside is left out of the ROI. */
+  std::vector<CircularField> fields;
 };
 
 /**

@@ -30,6 +30,7 @@ RegisterOptions RecordedOptions(const RegistrationRecordInputs& recorded, const 
   RegisterOptions inputsOf;
   inputsOf.ct = recorded.ct;
   inputsOf.series = recorded.series;
+  inputsOf.voxelSize = recorded.voxelSize;
   inputsOf.geometry = recorded.geometry;
   inputsOf.xrays = recorded.xrays;
   inputsOf.rois = recorded.rois;

@@ -55,6 +55,9 @@ VTKXPMASKING_EXPORT EntropyMaskResult ComputeEntropyMask(const uint16_t* image, 
 VTKXPMASKING_EXPORT std::vector<uint8_t> TransferMask(
   const std::vector<uint8_t>& mask, const XRayView& from, const XRayView& to);
 
+/** The 1s of a columns x rows mask widened by `radius` pixels (a square); radius <= 0: as it is. */
+VTKXPMASKING_EXPORT std::vector<uint8_t> DilateMask(const std::vector<uint8_t>& mask, int columns, int rows, int radius);
+
 } // namespace xp
 
 #endif

@@ -261,6 +261,7 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     Json::Value& inputs = root["inputs"];
     inputs["ct"] = in.ct;
     inputs["series"] = in.series;
+    inputs["voxel_size"] = in.voxelSize;
     inputs["geometry"] = in.geometry;
     inputs["xrays"] = List(in.xrays);
     inputs["xray_md5"] = List(in.xrayMD5);
@@ -348,6 +349,8 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
     RegistrationRecordInputs in;
     in.ct = f.Text("inputs.ct");
     in.series = f.Text("inputs.series");
+    if (root["inputs"].isMember("voxel_size")) // absent in records written before TIFF volumes
+      in.voxelSize = f.Text("inputs.voxel_size");
     in.geometry = f.Text("inputs.geometry");
     in.xrays = f.Texts("inputs.xrays");
     in.xrayMD5 = f.Texts("inputs.xray_md5");

@@ -29,7 +29,7 @@ inline constexpr const char* CorrectionConvention =
 /** The files and options a command registered; absolute paths. */
 struct RegistrationRecordInputs
 {
-  std::string ct, series, geometry;
+  std::string ct, series, voxelSize, geometry; ///< voxelSize: a TIFF volume's "x,y,z" (mm)
   std::vector<std::string> xrays, xrayMD5, rois;
   std::string size, isocenterInCT;
   double muWater = 0.0;

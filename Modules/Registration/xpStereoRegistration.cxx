@@ -4,6 +4,7 @@
 #include "xpError.h"
 #include "xpPoseOptimizer.h"
 #include "xpQualityGate.h"
+#include "xpRayCaster.h"
 
 #include <algorithm>
 #include <chrono>
@@ -111,6 +112,29 @@ double UncoveredFraction(const std::vector<uint16_t>& xray, const std::vector<ui
     uncovered += drr[i] >= 4095 && xray[i] < attenuated;
   }
   return valid > 0 ? static_cast<double>(uncovered) / valid : 0.0;
+}
+
+/** ANDs into each view's mask the shadow of the volume at `ctToRoom` (rays with any
+ *  attenuation), widened by `marginMM` on the panel. */
+void AndShadow(std::vector<RegistrationView>& views, const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
+  double marginMM)
+{
+  for (RegistrationView& item : views)
+  {
+    const int columns = item.view.Columns(), rows = item.view.Rows();
+    std::vector<float> integrals(static_cast<size_t>(columns) * rows, 0.0f);
+    RenderLineIntegrals(volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view), nullptr, integrals.data());
+    std::vector<uint8_t> shadow(integrals.size());
+    for (size_t i = 0; i < shadow.size(); ++i)
+      shadow[i] = integrals[i] > 0.0f;
+    shadow = DilateMask(shadow, columns, rows,
+      static_cast<int>(std::ceil(marginMM / std::min(item.view.pixelSpacing[0], item.view.pixelSpacing[1]))));
+    if (item.mask.empty())
+      item.mask = std::move(shadow);
+    else
+      for (size_t i = 0; i < shadow.size(); ++i)
+        item.mask[i] &= shadow[i];
+  }
 }
 
 /** Leaves out of `item.mask` the pixels whose rays cross the body beyond the CT's end faces `ends`. */
@@ -484,21 +508,58 @@ WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const Atten
 
 } // namespace
 
+bool OuterSurfaceIsBone(const AttenuationVolume& volume)
+{
+  const Eigen::Vector3i d = volume.StoredDimensions();
+  const auto at = [&](int i, int j, int k)
+  { return i < 0 || j < 0 || k < 0 || i >= d[0] || j >= d[1] || k >= d[2] ? 0.0f : volume.StoredAt(i, j, k); };
+  std::vector<float> surface;
+  for (int k = 0; k < d[2]; ++k)
+    for (int j = 0; j < d[1]; ++j)
+      for (int i = 0; i < d[0]; ++i)
+      {
+        const float mu = volume.StoredAt(i, j, k);
+        // Voxels on the stored box's faces beside the CT's own faces are cut, not surface.
+        if (mu > 0.0f && i > 0 && j > 0 && k > 0 && i + 1 < d[0] && j + 1 < d[1] && k + 1 < d[2] &&
+          (at(i - 1, j, k) == 0.0f || at(i + 1, j, k) == 0.0f || at(i, j - 1, k) == 0.0f || at(i, j + 1, k) == 0.0f ||
+            at(i, j, k - 1) == 0.0f || at(i, j, k + 1) == 0.0f))
+          surface.push_back(mu);
+      }
+  if (surface.size() < 100)
+    return false;
+  std::nth_element(surface.begin(), surface.begin() + surface.size() / 2, surface.end());
+  const double hu = 1000.0 * (surface[surface.size() / 2] / volume.MuWater() - 1.0);
+  return hu > 300.0;
+}
+
 std::vector<std::string> StereoRegistrationResult::Reasons() const
 {
   return GateMessages(this->failures);
 }
 
 StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& inputViews, const StereoRegistrationSettings& settings,
+  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& inputViews, const StereoRegistrationSettings& requested,
   const RegistrationObserver& observer)
 {
   if (inputViews.size() < 2)
   {
     throw InputError("registration", "a stereo registration needs at least two views");
   }
-  ValidateGateLimits(settings);
+  ValidateGateLimits(requested);
   StereoRegistrationResult result;
+  result.boneOnly = requested.detectBoneOnly && OuterSurfaceIsBone(volume);
+  // Around a bone cut out of a CT the X-ray shows soft tissue and bones the volume never had, and
+  // the bone runs on beyond the cut: no end-face evidence, no uncovered anatomy, and a bone's
+  // shadow is a few percent of a large field. The shadow is where the information is: the
+  // entropy mask would halve a few thousand pixels.
+  StereoRegistrationSettings settings = requested;
+  if (result.boneOnly)
+  {
+    settings.entropyMask = false;
+    settings.coverageMask = false;
+    settings.maxUncovered = 1.0;
+    settings.minValidFraction = 0.0;
+  }
   ProgressReporter progress(observer);
   const bool pyramid = settings.pyramid && inputViews[0].view.Columns() >= 256 && inputViews[0].view.Rows() >= 192;
 
@@ -510,20 +571,28 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const bool halveCT = pyramid && 2.0 * volume.MaximumSpacing() <= settings.maxHalvedVoxelMM;
   const AttenuationVolume halfVolume = halveCT ? volume.Halved() : AttenuationVolume();
   const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
+  result.start = settings.initialPose;
+  std::vector<RegistrationView> shadowed;
+  if (result.boneOnly)
+  {
+    shadowed = inputViews;
+    AndShadow(shadowed, coarseVolume, MisalignedCTToRoom(plannedCTToRoom, settings.initialPose, isocenter),
+      settings.boneShadowSearchMarginMM);
+  }
+  const std::vector<RegistrationView>& startViews = result.boneOnly ? shadowed : inputViews;
   WorkingXRays working;
   if (settings.rankedXRays)
-    working = RankedXRays(inputViews, coarseVolume, plannedCTToRoom, isocenter, settings.initialPose, pyramid, result);
+    working = RankedXRays(startViews, coarseVolume, plannedCTToRoom, isocenter, settings.initialPose, pyramid, result);
   else
   {
-    working.ranked = inputViews;
-    for (const RegistrationView& item : inputViews)
+    working.ranked = startViews;
+    for (const RegistrationView& item : startViews)
       working.openFieldBright.push_back(item.xray);
     working.noiseScaled = working.openFieldBright;
   }
   const std::vector<RegistrationView>& views = working.ranked;
   const std::vector<RegistrationView> coarseViews = AtCoarseSize(views, pyramid);
   StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins, { settings.equalizedLevels, 0.0 });
-  result.start = settings.initialPose;
   result.prealignment = PreAlign(coarse, settings.initialPose, isocenter);
   result.drrCount += coarse.RenderedDRRs();
   result.prealignSeconds = Since(start);
@@ -573,6 +642,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
         throw InputError("view " + masked[v].view.name, "the CT covers none of the valid pixels: nothing left to register");
     }
   }
+  if (result.boneOnly)
+    AndShadow(masked, volume, MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter), settings.boneShadowFineMarginMM);
   StereoSimilarity fine(
     volume, plannedCTToRoom, isocenter, masked, settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
   const PoseOptimizerSettings fineSettings = RefinementSettings(settings);
@@ -618,6 +689,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
         AndCoverage(item, coverage, resultCTToRoom, result.endFaces[v].facesToLeaveOut);
       wholeViews.push_back(item);
     }
+    if (result.boneOnly)
+      AndShadow(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM);
     StereoSimilarity heldOut(
       coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
     const auto objective = [&](const Pose& p)

@@ -32,6 +32,12 @@ struct StereoRegistrationSettings
   /** The half-size stages render from a half-resolution CT only when its voxels stay within
    *  this (mm); coarser voxels blur the bone edges the coarse search follows. */
   double maxHalvedVoxelMM = 2.5;
+  /** A volume whose outer surface is bone (a bone cut out of a CT, zero around it) is matched
+   *  only within its shadow, widened on the panel by the first margin (mm) for the search and
+   *  by the second, at the search's end, for the refinement: the soft tissue and the other
+   *  bones that the X-ray shows around it are no part of it. */
+  bool detectBoneOnly = true;
+  double boneShadowSearchMarginMM = 15.0, boneShadowFineMarginMM = 5.0;
   /** Where the search starts (the misalignment's terms: Room mm and degrees about the
    *  isocentre); the gate's maxTranslation and maxRotation bound the change from it. */
   Pose initialPose;
@@ -115,6 +121,8 @@ struct StereoRegistrationResult
   std::vector<GateFailure> failures; ///< why the gate failed (xpQualityGate.h); empty when ok
   std::vector<std::string> Reasons() const; ///< the failures' messages
   Pose start;        ///< the settings' initial pose, where the search began
+  /** The volume is a bone cut out of a CT (OuterSurfaceIsBone): only the bone's shadow is matched. */
+  bool boneOnly = false;
   Pose misalignment;
   Pose correction;                   ///< misalignment.Inverse(): what the table should do
   PreAlignmentResult prealignment;
@@ -166,7 +174,13 @@ using RegistrationObserver = std::function<void(const RegistrationProgress&)>;
  * the refinement of its ends and the quality gate (xpQualityGate.h). Throws xp::InputError when
  * a mask leaves nothing to register or a gate limit is invalid.
  */
-VTKXPREGISTRATION_EXPORT StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume,
+VTKXPREGISTRATION_EXPORT /**
+ * Whether the volume is a bone cut out of a CT: the median HU of its outer surface (non-air
+ * voxels beside air) above 300; a body's surface is skin, near 0 HU.
+ */
+VTKXPREGISTRATION_EXPORT bool OuterSurfaceIsBone(const AttenuationVolume& volume);
+
+StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
   const StereoRegistrationSettings& settings = {}, const RegistrationObserver& observer = {});
 

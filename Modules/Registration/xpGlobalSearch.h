@@ -1,0 +1,78 @@
+/**
+ * @file xpGlobalSearch.h
+ * @brief Starting poses for a registration that has none: a small bone somewhere in a large
+ *        field, in an orientation nobody measured (biplane videoradiography).
+ *
+ * The volume is turned through a grid of orientations (its slice axis along a near-uniform set
+ * of directions, spun about it in the same steps); at each, its DRR in each view is matched over
+ * the whole X-ray by normalised cross-correlation of gradient magnitudes (bone outlines; the
+ * X-ray's polarity does not matter), at about 200 pixels across. The best places of the two views
+ * are joined into a 3D position by their rays' closest approach; pairs whose rays pass far
+ * apart do not show one object. The best-scoring distinct poses are the candidates, for the
+ * registration to refine and its gate to judge.
+ */
+#ifndef xpGlobalSearch_h
+#define xpGlobalSearch_h
+
+#include "vtkXPRegistrationModule.h"
+
+#include "xpAttenuationVolume.h"
+#include "xpPose.h"
+#include "xpStereoRegistration.h"
+#include "xpStereoSimilarity.h"
+
+#include <vector>
+
+namespace xp
+{
+
+struct GlobalSearchSettings
+{
+  double angleStepDegrees = 30.0; ///< between neighbouring orientations
+  int workingColumns = 200;       ///< the images are shrunk to about this width
+  int peaksPerView = 3;           ///< places kept per view and orientation
+  double maxRaysApartMM = 10.0;   ///< a pair's rays must pass this close
+  int candidates = 10;            ///< distinct poses returned
+  /** Candidates closer than this (mm and degrees) are one. */
+  double distinctMM = 10.0, distinctDegrees = 20.0;
+};
+
+struct GlobalCandidate
+{
+  Pose pose;               ///< a misalignment, about the isocentre, as StereoRegistrationSettings::initialPose
+  double score = 0.0;      ///< mean correlation of the views (at most 1)
+  double raysApartMM = 0.0;
+};
+
+/**
+ * The candidates, best first. `views` hold the X-rays as they came and their ROIs (empty =
+ * all); `ctCenterInRoom` is the volume's centre at the planned set-up.
+ */
+VTKXPREGISTRATION_EXPORT std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume,
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const Eigen::Vector3d& ctCenterInRoom,
+  const std::vector<RegistrationView>& views, const GlobalSearchSettings& settings = {});
+
+struct GlobalStart
+{
+  Pose pose;                                ///< the best refined candidate: the start to register from
+  std::vector<GlobalCandidate> candidates;  ///< as found
+  std::vector<double> objectives;           ///< per candidate, refined
+  std::vector<Pose> refined;                ///< per candidate
+};
+
+/**
+ * Each candidate registered (RegisterStereo with `settings`, its start the candidate's pose and
+ * the motion limits lifted: a candidate is up to half a grid step off); the end with the highest
+ * objective is the start. Throws xp::InputError when there is no candidate.
+ */
+VTKXPREGISTRATION_EXPORT GlobalStart RefineGlobalCandidates(const AttenuationVolume& volume,
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
+  const StereoRegistrationSettings& settings, const std::vector<GlobalCandidate>& candidates);
+
+/** Rotations on a near-uniform grid `stepDegrees` apart: a Fibonacci set of directions for the
+ *  slice axis, each spun about itself in the same steps. */
+VTKXPREGISTRATION_EXPORT std::vector<Eigen::Matrix3d> OrientationGrid(double stepDegrees);
+
+} // namespace xp
+
+#endif
