@@ -189,23 +189,19 @@ bool UsesGlobalSearch(const RegisterOptions& options)
   return options.globalSearch || (options.initialPose.empty() && tiff(options.ct));
 }
 
-/** The start of a registration that has none (xpGlobalSearch.h): candidates found over every
- *  orientation, each refined; the best refined end. */
+/** The start of a registration that has none (xpGlobalSearch.h): the best candidate. */
 Pose FoundStart(const RegistrationInputs& inputs, const RegisterOptions& options)
 {
   const Clock::time_point start = Clock::now();
   const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(inputs.setup.ct.image, options.muWater);
   const std::vector<GlobalCandidate> candidates = FindGlobalStarts(*volume, inputs.planned, inputs.setup.geometry.isocenter,
     inputs.planned * ImageCenter(inputs.setup.ct.image), inputs.views);
-  std::printf("global search: %zu candidate starts (%.2f s)\n", candidates.size(), Since(start));
-  const GlobalStart found =
-    RefineGlobalCandidates(*volume, inputs.planned, inputs.setup.geometry.isocenter, inputs.views, options.settings, candidates);
-  for (size_t c = 0; c < candidates.size(); ++c)
-    std::printf("  from %s (correlation %.3f, rays %.1f mm apart): objective %.4f at %s\n",
-      candidates[c].pose.ToString().c_str(), candidates[c].score, candidates[c].raysApartMM, found.objectives[c],
-      found.refined[c].ToString().c_str());
-  std::printf("global search: start %s (%.2f s)\n", found.pose.ToString().c_str(), Since(start));
-  return found.pose;
+  if (candidates.empty())
+    throw InputError("--global-search", "no orientation of the volume matches both X-rays: give --initial-pose");
+  for (const GlobalCandidate& candidate : candidates)
+    std::printf("  candidate %s: correlation %.3f\n", candidate.pose.ToString().c_str(), candidate.score);
+  std::printf("global search: start %s (%.2f s)\n", candidates.front().pose.ToString().c_str(), Since(start));
+  return candidates.front().pose;
 }
 
 /** What the registration found at each stage, after the filter has run. */

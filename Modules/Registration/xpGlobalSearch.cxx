@@ -2,6 +2,7 @@
 
 #include "xpError.h"
 #include "xpImageLevels.h"
+#include "xpPoseOptimizer.h"
 #include "xpProjectionMatrix.h"
 #include "xpRayCaster.h"
 
@@ -16,24 +17,72 @@ namespace xp
 namespace
 {
 
-/** The X-ray at the working size: its ranks over the ROI, averaged down to 1 / factor; outside
- *  the ROI (shrunk by 2 working pixels) the ROI's mean, which correlates with nothing. */
-cv::Mat XRayLevels(const RegistrationView& item, int factor)
+/** Less its Gaussian low-pass (sd 6 working pixels, about 1 cm): a limb's shading and an image
+ *  intensifier's bands go, a bone's outline and its inside stay. */
+cv::Mat HighPass(const cv::Mat& image)
+{
+  cv::Mat low;
+  cv::GaussianBlur(image, low, cv::Size(0, 0), 6.0);
+  return image - low;
+}
+
+/** An X-ray at the working size: its structure (ranks over the ROI, high-passed), and per
+ *  polarity where the body is (bone bright: brighter than the open field; bone dark: darker),
+ *  split from the open field by Otsu's threshold on the grey levels within the ROI. A bone lies
+ *  within the body. */
+struct WorkingXRay
+{
+  cv::Mat structure;
+  cv::Mat body[2]; ///< CV_8U 0/1: [0] bone bright, [1] bone dark
+  /** How much more structure the darker side of the split holds than the brighter (mean
+   *  |high-passed ranks|): above 1, the body is dark, as in raw transmission. */
+  double darkStructureRatio = 1.0;
+};
+
+WorkingXRay MakeWorkingXRay(const RegistrationView& item, int factor)
 {
   const int columns = item.view.Columns() / factor, rows = item.view.Rows() / factor;
   const std::vector<uint16_t> ranks = EqualizedLevels(item.xray, item.mask);
   cv::Mat full(item.view.Rows(), item.view.Columns(), CV_16U, const_cast<uint16_t*>(ranks.data())), fullFloat, small;
   full.convertTo(fullFloat, CV_32F);
   cv::resize(fullFloat, small, cv::Size(columns, rows), 0, 0, cv::INTER_AREA); // the panel's whole extent, as Resampled
+  cv::Mat inside(rows, columns, CV_8U, cv::Scalar(1));
   if (!item.mask.empty())
   {
-    cv::Mat mask(item.view.Rows(), item.view.Columns(), CV_8U, const_cast<uint8_t*>(item.mask.data())), smallMask, inside;
+    cv::Mat mask(item.view.Rows(), item.view.Columns(), CV_8U, const_cast<uint8_t*>(item.mask.data())), smallMask;
     cv::resize(mask, smallMask, cv::Size(columns, rows), 0, 0, cv::INTER_NEAREST);
     cv::erode(smallMask, inside, cv::Mat(), cv::Point(-1, -1), 2);
-    small.setTo(cv::mean(small, inside)[0], inside == 0);
+    inside = inside != 0;
+    inside /= 255;
   }
-  return small;
+  // Outside the ROI the ROI's mean, which correlates with nothing.
+  small.setTo(cv::mean(small, inside)[0], inside == 0);
+  WorkingXRay working;
+  working.structure = HighPass(small);
+  // The body from the grey levels as they came (ranks are flat: every split is the median).
+  cv::Mat raw(item.view.Rows(), item.view.Columns(), CV_16U, const_cast<uint16_t*>(item.xray.data())), rawFloat, smooth, grey, split;
+  raw.convertTo(rawFloat, CV_32F);
+  cv::resize(rawFloat, smooth, cv::Size(columns, rows), 0, 0, cv::INTER_AREA);
+  cv::GaussianBlur(smooth, smooth, cv::Size(0, 0), 2.0);
+  double low = 0.0, high = 0.0;
+  cv::minMaxLoc(smooth, &low, &high, nullptr, nullptr, inside);
+  smooth.convertTo(grey, CV_8U, 255.0 / std::max(high - low, 1e-6), -255.0 * low / std::max(high - low, 1e-6));
+  std::vector<uint8_t> values;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+      if (inside.at<uint8_t>(r, c))
+        values.push_back(grey.at<uint8_t>(r, c));
+  const double threshold = values.empty() ? 128.0 : cv::threshold(cv::Mat(values), split, 0, 1, cv::THRESH_BINARY | cv::THRESH_OTSU);
+  working.body[0] = (grey > threshold) & inside; // 255 & 1: 0 or 1
+  working.body[1] = (grey <= threshold) & inside;
+  const cv::Mat texture = cv::abs(working.structure);
+  const double bright = cv::mean(texture, working.body[0])[0], dark = cv::mean(texture, working.body[1])[0];
+  working.darkStructureRatio = dark / std::max(bright, 1e-9);
+  return working;
 }
+
+/** A bone's shadow lies within the body's: at least this share of it. */
+constexpr double MinWithinBody = 0.8;
 
 struct Peak
 {
@@ -57,6 +106,106 @@ std::vector<Peak> HighestPeaks(cv::Mat map, int count, int apart)
   }
   return peaks;
 }
+
+/** The first `count` of `sorted` that are not within `mm` and `degrees` of an earlier one. */
+std::vector<GlobalCandidate> Distinct(const std::vector<GlobalCandidate>& sorted, int count, double mm, double degrees)
+{
+  std::vector<GlobalCandidate> distinct;
+  for (const GlobalCandidate& c : sorted)
+  {
+    if (static_cast<int>(distinct.size()) == count)
+      break;
+    const bool near = std::any_of(distinct.begin(), distinct.end(), [&](const GlobalCandidate& d)
+      {
+        const double apart = Eigen::AngleAxisd(c.pose.Rotation() * d.pose.Rotation().transpose()).angle() * 180.0 / M_PI;
+        return (c.pose.translation - d.pose.translation).norm() < mm && apart < degrees;
+      });
+    if (!near)
+      distinct.push_back(c);
+  }
+  return distinct;
+}
+
+/**
+ * The search's score of a pose: per view, the correlation of the high-passed X-ray with the
+ * high-passed DRR over the volume's shadow and a rim of 2 pixels (the template of the grid
+ * search, at the pose's own place), averaged over the views; `sign` -1 for X-rays whose bone is
+ * dark.
+ */
+class TwoViewCorrelation
+{
+public:
+  TwoViewCorrelation(const AttenuationVolume& volume, const Eigen::Isometry3d& planned, const Eigen::Vector3d& isocenter,
+    const std::vector<XRayView>& views, const std::vector<WorkingXRay>& xrays, int polarity)
+    : Volume(volume), Planned(planned), Isocenter(isocenter), Views(views), XRays(xrays), Polarity(polarity)
+  {
+  }
+
+  double operator()(const Pose& pose) const
+  {
+    double sum = 0.0;
+    for (size_t v = 0; v < this->Views.size(); ++v)
+    {
+      const XRayView& view = this->Views[v];
+      cv::Mat integrals(view.Rows(), view.Columns(), CV_32F, cv::Scalar(0.0f));
+      RenderLineIntegrals(this->Volume, MisalignedCTToRoom(this->Planned, pose, this->Isocenter), view.source,
+        DetectorGrid::TopRowFirst(view), nullptr, integrals.ptr<float>());
+      cv::Mat shadow = integrals > 0.0f;
+      const int pixels = cv::countNonZero(shadow);
+      if (pixels < 16)
+        return -1.0; // the volume left the images
+      const cv::Mat& body = this->XRays[v].body[this->Polarity];
+      if (cv::countNonZero(body & shadow) < MinWithinBody * pixels)
+        return -1.0;
+      cv::dilate(shadow, shadow, cv::Mat(), cv::Point(-1, -1), 2);
+      const cv::Mat structure = HighPass(integrals);
+      const cv::Mat& xray = this->XRays[v].structure;
+      cv::Scalar meanD, sdD, meanX, sdX;
+      cv::meanStdDev(structure, meanD, sdD, shadow);
+      cv::meanStdDev(xray, meanX, sdX, shadow);
+      if (!(sdD[0] > 0.0 && sdX[0] > 0.0))
+        return -1.0;
+      cv::Mat product = (structure - meanD[0]).mul(xray - meanX[0]);
+      sum += (this->Polarity == 0 ? 1.0 : -1.0) * cv::mean(product, shadow)[0] / (sdD[0] * sdX[0]);
+    }
+    return sum / this->Views.size();
+  }
+
+  /** The pose near `start` of the highest score, moved and turned about the volume's centre
+   *  (`ctCenterInRoom` at the planned set-up); `score` is set to its score. */
+  Pose Refine(const Pose& start, const Eigen::Vector3d& ctCenterInRoom, double& score) const
+  {
+    const Eigen::Isometry3d from = start.ToTransform(this->Isocenter);
+    const Eigen::Vector3d center = from * ctCenterInRoom;
+    // Parameters: a motion about the volume's centre after `start`, so that turning it does not
+    // swing it about an isocentre some centimetres away.
+    const auto posed = [&](const Pose& local)
+    {
+      const Eigen::Isometry3d motion = local.ToTransform(center);
+      return Pose::FromTransform(motion * from, this->Isocenter);
+    };
+    PoseOptimizerSettings settings;
+    settings.initialStepMM = 3.0;
+    settings.initialStepDegrees = 6.0;
+    settings.toleranceMM = 0.2;
+    settings.toleranceDegrees = 0.5;
+    settings.maxEvaluations = 150;
+    settings.maxRestarts = 1;
+    settings.boundMM = 20.0;
+    settings.boundDegrees = 30.0;
+    const PoseOptimizerResult result = MaximizePose([&](const Pose& local) { return (*this)(posed(local)); }, Pose{}, settings);
+    score = result.value;
+    return posed(result.pose);
+  }
+
+private:
+  const AttenuationVolume& Volume;
+  Eigen::Isometry3d Planned;
+  Eigen::Vector3d Isocenter;
+  const std::vector<XRayView>& Views;
+  const std::vector<WorkingXRay>& XRays;
+  int Polarity;
+};
 
 } // namespace
 
@@ -86,16 +235,17 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
   if (views.size() != 2)
     throw InputError("global search", "joins the places found in exactly two views");
   const int factor = std::max(1, static_cast<int>(std::lround(static_cast<double>(views[0].view.Columns()) / settings.workingColumns)));
-  std::vector<cv::Mat> xrays;
+  std::vector<WorkingXRay> xrays;
   std::vector<XRayView> small;
   for (const RegistrationView& item : views)
   {
-    xrays.push_back(XRayLevels(item, factor));
+    xrays.push_back(MakeWorkingXRay(item, factor));
     small.push_back(item.view.Resampled(item.view.Columns() / factor, item.view.Rows() / factor));
   }
-  // Per polarity of the X-rays (bone bright, as the DRR's line integrals, or dark, as raw
-  // transmission): the polarity whose best pair scores higher is the X-rays'.
-  std::vector<GlobalCandidate> found[2];
+  // The X-rays' polarity: the body is the side of the grey-level split that holds the structure
+  // (the open field is flat); a dark body is raw transmission, and its bone is dark too.
+  const int polarity = xrays[0].darkStructureRatio * xrays[1].darkStructureRatio > 1.0 ? 1 : 0;
+  std::vector<GlobalCandidate> chosen;
   for (const Eigen::Matrix3d& rotation : OrientationGrid(settings.angleStepDegrees))
   {
     Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
@@ -104,7 +254,7 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
     const Pose orientation = Pose::FromTransform(turn, isocenter);
     const Eigen::Isometry3d ctToRoom = MisalignedCTToRoom(plannedCTToRoom, orientation, isocenter);
     const Eigen::Vector3d center = turn * ctCenterInRoom; // where the volume's centre is now
-    std::vector<cv::Mat> maps(2);
+    std::vector<cv::Mat> maps(2), withinBody(2);
     std::vector<int> apart(2);
     std::vector<Eigen::Vector2d> centerAt(2);
     bool seen = true;
@@ -121,10 +271,17 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
         seen = false;
         break;
       }
+      const cv::Rect padded = (box + cv::Size(4, 4) - cv::Point(2, 2)) & cv::Rect(0, 0, view.Columns(), view.Rows());
+      // The share of the shadow that each placement puts within the body.
+      cv::Mat bone, body;
+      shadow(padded).convertTo(bone, CV_32F, 1.0 / 255.0);
+      xrays[v].body[polarity].convertTo(body, CV_32F);
+      cv::matchTemplate(body, bone, withinBody[v], cv::TM_CCORR);
+      withinBody[v] /= std::max(1.0, cv::sum(bone)[0]);
       // The bone's shadow and a rim of 2 pixels: the bone against what surrounds it.
       cv::dilate(shadow, shadow, cv::Mat(), cv::Point(-1, -1), 2);
-      const cv::Rect padded = (box + cv::Size(4, 4) - cv::Point(2, 2)) & cv::Rect(0, 0, view.Columns(), view.Rows());
-      cv::matchTemplate(xrays[v], integrals(padded), maps[v], cv::TM_CCOEFF_NORMED, shadow(padded));
+      const cv::Mat structure = HighPass(integrals);
+      cv::matchTemplate(xrays[v].structure, structure(padded), maps[v], cv::TM_CCOEFF_NORMED, shadow(padded));
       // Where the X-ray is flat under the template (outside the field) the correlation is 0/0.
       cv::patchNaNs(maps[v], 0.0);
       maps[v].setTo(0.0f, (maps[v] > 1.0f) | (maps[v] < -1.0f));
@@ -134,11 +291,14 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
     }
     if (!seen)
       continue;
-    for (int polarity = 0; polarity < 2; ++polarity)
     {
       std::vector<std::vector<Peak>> peaks(2);
       for (size_t v = 0; v < 2; ++v)
-        peaks[v] = HighestPeaks(polarity == 0 ? maps[v].clone() : cv::Mat(-maps[v]), settings.peaksPerView, apart[v]);
+      {
+        cv::Mat map = polarity == 0 ? maps[v].clone() : cv::Mat(-maps[v]);
+        map.setTo(-1.0f, withinBody[v] < MinWithinBody);
+        peaks[v] = HighestPeaks(map, settings.peaksPerView, apart[v]);
+      }
       for (const Peak& a : peaks[0])
         for (const Peak& b : peaks[1])
         {
@@ -158,60 +318,23 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
           candidate.pose.translation = place - center;
           candidate.score = 0.5 * (a.value + b.value);
           candidate.raysApartMM = raysApart;
-          found[polarity].push_back(candidate);
+          chosen.push_back(candidate);
         }
     }
   }
-  const auto best = [](const std::vector<GlobalCandidate>& list)
-  {
-    double top = -1.0;
-    for (const GlobalCandidate& c : list)
-      top = std::max(top, c.score);
-    return top;
-  };
-  std::vector<GlobalCandidate>& chosen = best(found[1]) > best(found[0]) ? found[1] : found[0];
   std::sort(chosen.begin(), chosen.end(), [](const GlobalCandidate& x, const GlobalCandidate& y) { return x.score > y.score; });
-  std::vector<GlobalCandidate> distinct;
-  for (const GlobalCandidate& c : chosen)
+  // The grid's best are half a step off at most: each is refined on the same correlation, the
+  // pose now free, and the refined scores decide.
+  const TwoViewCorrelation correlation(volume, plannedCTToRoom, isocenter, small, xrays, polarity);
+  std::vector<GlobalCandidate> refined;
+  for (const GlobalCandidate& c : Distinct(chosen, settings.refined, 0.5 * settings.distinctMM, 0.5 * settings.distinctDegrees))
   {
-    const bool near = std::any_of(distinct.begin(), distinct.end(), [&](const GlobalCandidate& d)
-      {
-        const double degrees = Eigen::AngleAxisd(c.pose.Rotation() * d.pose.Rotation().transpose()).angle() * 180.0 / M_PI;
-        return (c.pose.translation - d.pose.translation).norm() < settings.distinctMM && degrees < settings.distinctDegrees;
-      });
-    if (!near)
-      distinct.push_back(c);
-    if (static_cast<int>(distinct.size()) == settings.candidates)
-      break;
+    GlobalCandidate better = c;
+    better.pose = correlation.Refine(c.pose, ctCenterInRoom, better.score);
+    refined.push_back(better);
   }
-  return distinct;
-}
-
-GlobalStart RefineGlobalCandidates(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings,
-  const std::vector<GlobalCandidate>& candidates)
-{
-  if (candidates.empty())
-    throw InputError("global search", "no orientation of the volume matches both X-rays: give an initial pose");
-  GlobalStart start;
-  start.candidates = candidates;
-  double best = -1.0;
-  for (const GlobalCandidate& candidate : candidates)
-  {
-    StereoRegistrationSettings refine = settings;
-    refine.initialPose = candidate.pose;
-    refine.maxTranslation = 500.0;
-    refine.maxRotation = 180.0;
-    const StereoRegistrationResult result = RegisterStereo(volume, plannedCTToRoom, isocenter, views, refine);
-    start.objectives.push_back(result.objective);
-    start.refined.push_back(result.misalignment);
-    if (result.objective > best)
-    {
-      best = result.objective;
-      start.pose = result.misalignment;
-    }
-  }
-  return start;
+  std::sort(refined.begin(), refined.end(), [](const GlobalCandidate& x, const GlobalCandidate& y) { return x.score > y.score; });
+  return Distinct(refined, settings.candidates, settings.distinctMM, settings.distinctDegrees);
 }
 
 } // namespace xp

@@ -5,11 +5,13 @@
  *
  * The volume is turned through a grid of orientations (its slice axis along a near-uniform set
  * of directions, spun about it in the same steps); at each, its DRR in each view is matched over
- * the whole X-ray by normalised cross-correlation of gradient magnitudes (bone outlines; the
- * X-ray's polarity does not matter), at about 200 pixels across. The best places of the two views
+ * the whole X-ray by normalised cross-correlation over the DRR's shadow and a rim around it, both
+ * images high-passed (a limb's shading and an image intensifier's bands go), at about 200 pixels
+ * across; both polarities are tried, and the one whose best match scores higher is the X-rays'. The best places of the two views
  * are joined into a 3D position by their rays' closest approach; pairs whose rays pass far
- * apart do not show one object. The best-scoring distinct poses are the candidates, for the
- * registration to refine and its gate to judge.
+ * apart do not show one object. The best of them are refined on the same correlation, the pose
+ * free, and the best-scoring distinct poses are the candidates, best first: the first is the
+ * start for the registration, and its gate judges where that ends.
  */
 #ifndef xpGlobalSearch_h
 #define xpGlobalSearch_h
@@ -18,7 +20,6 @@
 
 #include "xpAttenuationVolume.h"
 #include "xpPose.h"
-#include "xpStereoRegistration.h"
 #include "xpStereoSimilarity.h"
 
 #include <vector>
@@ -28,11 +29,12 @@ namespace xp
 
 struct GlobalSearchSettings
 {
-  double angleStepDegrees = 30.0; ///< between neighbouring orientations
+  double angleStepDegrees = 20.0; ///< between neighbouring orientations
   int workingColumns = 200;       ///< the images are shrunk to about this width
   int peaksPerView = 3;           ///< places kept per view and orientation
   double maxRaysApartMM = 10.0;   ///< a pair's rays must pass this close
-  int candidates = 10;            ///< distinct poses returned
+  int refined = 30;               ///< the grid's best, each refined on the correlation
+  int candidates = 5;             ///< distinct refined poses returned
   /** Candidates closer than this (mm and degrees) are one. */
   double distinctMM = 10.0, distinctDegrees = 20.0;
 };
@@ -51,23 +53,6 @@ struct GlobalCandidate
 VTKXPREGISTRATION_EXPORT std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const Eigen::Vector3d& ctCenterInRoom,
   const std::vector<RegistrationView>& views, const GlobalSearchSettings& settings = {});
-
-struct GlobalStart
-{
-  Pose pose;                                ///< the best refined candidate: the start to register from
-  std::vector<GlobalCandidate> candidates;  ///< as found
-  std::vector<double> objectives;           ///< per candidate, refined
-  std::vector<Pose> refined;                ///< per candidate
-};
-
-/**
- * Each candidate registered (RegisterStereo with `settings`, its start the candidate's pose and
- * the motion limits lifted: a candidate is up to half a grid step off); the end with the highest
- * objective is the start. Throws xp::InputError when there is no candidate.
- */
-VTKXPREGISTRATION_EXPORT GlobalStart RefineGlobalCandidates(const AttenuationVolume& volume,
-  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
-  const StereoRegistrationSettings& settings, const std::vector<GlobalCandidate>& candidates);
 
 /** Rotations on a near-uniform grid `stepDegrees` apart: a Fibonacci set of directions for the
  *  slice axis, each spun about itself in the same steps. */
