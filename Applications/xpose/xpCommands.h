@@ -122,6 +122,15 @@ struct RegisterOptions
   std::vector<std::string> xrayInstances; ///< with pacs: the X-rays' SOP Instance UIDs, in imager order
 };
 
+/** `xpose track`: the registration's options, one stereo pair per frame. */
+struct TrackOptions
+{
+  RegisterOptions registration;     ///< all but xrays, rois, outputDirectory, reportDirectory and DICOM/PACS
+  std::vector<std::string> frames;  ///< per frame "A.tif,B.tif": one X-ray per imager, in the geometry's order
+  std::string outputDirectory;      ///< poses.csv, poses.json, frame-NNNN/result.json
+  std::string reportDirectory;      ///< when set, each frame's report in DIR/frame-NNNN/
+};
+
 struct ReportOptions
 {
   std::string result;               ///< result.json of `xpose register`
@@ -190,6 +199,10 @@ int RunSimulate(const SimulateOptions& options);
 int RunRegister(const RegisterOptions& options);
 int RunEvaluate(const EvaluateOptions& options);
 int RunReport(const ReportOptions& options);
+/** Registers frame after frame, each from the previous frame's result (the first from
+ *  --initial-pose, the global search or the planned set-up); writes poses.csv and poses.json.
+ *  ExitOk when every frame is ok, ExitRegistrationFailed when one is not. */
+int RunTrack(const TrackOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);

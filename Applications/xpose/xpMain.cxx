@@ -160,32 +160,50 @@ CLI::App* AddSimulateCommand(CLI::App& app, xp::SimulateOptions& options)
   return simulateCommand;
 }
 
+/** What register and track share: the volume, the geometry, where to start, the method and the gate. */
+void AddRegistrationOptions(CLI::App* command, xp::RegisterOptions& options)
+{
+  command->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (or --pacs)");
+  command->add_option("--series", options.series, "Series Instance UID when the folder holds several");
+  command->add_option("--voxel-size", options.voxelSize, VoxelSizeHelp);
+  command->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
+  command->add_flag("!--no-entropy-mask", options.settings.entropyMask, "Register the whole image (no entropy mask)");
+  command->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
+  command->add_option("--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  command->add_option("--initial-pose", options.initialPose,
+    "Start the search here: tx,ty,tz,pitch,roll,yaw (mm, degrees), the terms of result.json's misalignment; "
+    "--max-translation and --max-rotation then bound the change from it");
+  command->add_flag("--global-search", options.globalSearch,
+    "Find the start over all orientations and places in both views (always for a TIFF volume without --initial-pose)");
+  command->add_flag("--remove-table", options.removeTable,
+    "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
+  AddMethodOptions(command, options.settings);
+  command->add_option("--max-translation", options.settings.maxTranslation, "Gate: largest accepted correction, mm")
+    ->capture_default_str();
+  command->add_option("--max-rotation", options.settings.maxRotation, "Gate: largest accepted correction, degrees")
+    ->capture_default_str();
+  AddGateOptions(command, options.settings);
+  command->add_option("--threads", options.threads, "Threads (0: all cores)");
+}
+
+CLI::App* AddTrackCommand(CLI::App& app, xp::TrackOptions& options)
+{
+  CLI::App* track = app.add_subcommand("track", "Register a sequence of stereo frames, each from the previous result");
+  AddRegistrationOptions(track, options.registration);
+  track->add_option("--frames", options.frames, "One A.tif,B.tif (one X-ray per imager, comma-separated) per frame, in order")
+    ->required();
+  track->add_option("--out-dir", options.outputDirectory, "Output folder: poses.csv, poses.json and frame-NNNN/result.json")
+    ->required();
+  track->add_option("--report", options.reportDirectory, "Also write each frame's visual report to DIR/frame-NNNN/");
+  return track;
+}
+
 CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
 {
   CLI::App* registerCommand = app.add_subcommand("register", "Find the patient's 6-DOF misalignment from the stereo X-rays");
-  registerCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (or --pacs)");
-  registerCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
-  registerCommand->add_option("--voxel-size", options.voxelSize, VoxelSizeHelp);
-  registerCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
+  AddRegistrationOptions(registerCommand, options);
   registerCommand->add_option("--xray", options.xrays, "X-ray: grey PNG or TIFF (8 or 16 bits) or DICOM, one per imager in order (or --pacs)");
   registerCommand->add_option("--roi", options.rois, "User ROI PNG per X-ray (non-zero = use)");
-  registerCommand->add_flag("!--no-entropy-mask", options.settings.entropyMask, "Register the whole image (no entropy mask)");
-  registerCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
-  registerCommand->add_option("--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
-  registerCommand->add_option("--initial-pose", options.initialPose,
-    "Start the search here: tx,ty,tz,pitch,roll,yaw (mm, degrees), the terms of result.json's misalignment; "
-    "--max-translation and --max-rotation then bound the change from it");
-  registerCommand->add_flag("--global-search", options.globalSearch,
-    "Find the start over all orientations and places in both views (always for a TIFF volume without --initial-pose)");
-  registerCommand->add_flag("--remove-table", options.removeTable,
-    "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
-  AddMethodOptions(registerCommand, options.settings);
-  registerCommand->add_option("--max-translation", options.settings.maxTranslation, "Gate: largest accepted correction, mm")
-    ->capture_default_str();
-  registerCommand->add_option("--max-rotation", options.settings.maxRotation, "Gate: largest accepted correction, degrees")
-    ->capture_default_str();
-  AddGateOptions(registerCommand, options.settings);
-  registerCommand->add_option("--threads", options.threads, "Threads (0: all cores)");
   registerCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
   registerCommand->add_option("--report", options.reportDirectory, "Also write the visual report (index.html, summary.png) here");
   registerCommand->add_option("--dicom-out", options.dicomOutputDirectory,
@@ -278,6 +296,8 @@ int main(int argc, char** argv)
   CLI::App* simulateCommand = AddSimulateCommand(app, simulate);
   xp::RegisterOptions reg;
   CLI::App* registerCommand = AddRegisterCommand(app, reg);
+  xp::TrackOptions track;
+  CLI::App* trackCommand = AddTrackCommand(app, track);
   xp::ReportOptions report;
   CLI::App* reportCommand = AddReportCommand(app, report);
   xp::EvaluateOptions evaluate;
@@ -297,6 +317,8 @@ int main(int argc, char** argv)
     return xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(evaluate); });
   if (registerCommand->parsed())
     return xp::GuardedRun("register", [&] { return xp::RunRegister(reg); });
+  if (trackCommand->parsed())
+    return xp::GuardedRun("track", [&] { return xp::RunTrack(track); });
   if (simulateCommand->parsed())
     return xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); });
   if (maskCommand->parsed())

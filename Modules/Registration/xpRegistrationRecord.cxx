@@ -6,6 +6,7 @@
 #include <vtk_jsoncpp.h>
 
 #include <cmath>
+#include <limits>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -303,6 +304,15 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.ok = status == "ok";
   r.misalignment = f.PoseAt("misalignment");
   r.correction = f.PoseAt("correction");
+  if (root.isMember("uncertainty") && root["uncertainty"].isObject()) // null: no maximum along that axis
+  {
+    static const char* axes[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
+    for (int a = 0; a < 6; ++a)
+    {
+      const Json::Value& value = root["uncertainty"][axes[a]];
+      r.uncertainty[a] = value.isNumeric() ? value.asDouble() : std::numeric_limits<double>::infinity();
+    }
+  }
   if (f.Has("initial_pose")) // absent in records written before --initial-pose
     r.initialPose = f.PoseAt("initial_pose");
   r.viewNames = f.Texts("views");

@@ -53,7 +53,7 @@ struct RegistrationRecord
   int evaluations = 0;
   double readSeconds = 0.0, prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
   double searchApartMM = 0.0, searchApartDegrees = 0.0, searchObjectiveRatio = 1.0;
-  std::array<double, 6> uncertainty{}; ///< per axis (mm, degrees); written, not read back
+  std::array<double, 6> uncertainty{}; ///< per axis (mm, degrees); infinite: no maximum along it
   /** Per view: correlation of the X-ray with the DRR at the start pose (< 0: bright means
    *  attenuation, as log images); written, not read back. */
   std::vector<double> xrayCorrelation;

@@ -538,7 +538,7 @@ std::vector<std::string> StereoRegistrationResult::Reasons() const
 }
 
 StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& inputViews, const StereoRegistrationSettings& requested,
+  const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& inputViews, const StereoRegistrationSettings& requested,
   const RegistrationObserver& observer)
 {
   if (inputViews.size() < 2)
@@ -553,6 +553,17 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // shadow is a few percent of a large field. The shadow is where the information is: the
   // entropy mask would halve a few thousand pixels.
   StereoRegistrationSettings settings = requested;
+  // A bone turns about its own centre: about an isocentre some centimetres away, each turn would
+  // also move it, and the optimiser's steps and the landscape's probes would mix the two. Poses
+  // are about the volume's centre at the start inside, and about the isocentre outside.
+  Eigen::Vector3d isocenter = roomIsocenter;
+  if (result.boneOnly)
+  {
+    isocenter = MisalignedCTToRoom(plannedCTToRoom, requested.initialPose, roomIsocenter) * volume.IndexToCT() *
+      (0.5 * (volume.Dimensions().cast<double>() - Eigen::Vector3d::Ones()));
+    settings.initialPose = Pose::FromTransform(requested.initialPose.ToTransform(roomIsocenter), isocenter);
+  }
+  const auto aboutIsocenter = [&](const Pose& pose) { return Pose::FromTransform(pose.ToTransform(isocenter), roomIsocenter); };
   if (result.boneOnly)
   {
     settings.entropyMask = false;
@@ -571,7 +582,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const bool halveCT = pyramid && 2.0 * volume.MaximumSpacing() <= settings.maxHalvedVoxelMM;
   const AttenuationVolume halfVolume = halveCT ? volume.Halved() : AttenuationVolume();
   const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
-  result.start = settings.initialPose;
+  result.start = requested.initialPose;
   std::vector<RegistrationView> shadowed;
   if (result.boneOnly)
   {
@@ -707,14 +718,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   result.objective = fine.Evaluate(fineResult.pose);
   result.drrCount += fine.RenderedDRRs();
   result.converged = fineResult.converged;
-  result.misalignment = fineResult.pose;
-  result.correction = fineResult.pose.Inverse();
+  result.misalignment = aboutIsocenter(fineResult.pose);
+  result.correction = result.misalignment.Inverse();
   result.mutualInformation = fine.LastMutualInformation();
   result.fineSeconds = Since(start);
 
   // 4. Quality gate, on what each view says at the result.
   progress.Begin("quality gate", 0.95, 1.0);
-  evidence.misalignment = result.misalignment;
+  evidence.misalignment = fineResult.pose; // the gate's motion limits: about the same centre as the start
   evidence.start = settings.initialPose;
   evidence.converged = fineResult.converged;
   evidence.stopReason = fineResult.stopReason;
@@ -735,6 +746,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     evidence.views.push_back(view);
   }
   result.failures = CheckQuality(evidence, settings);
+  result.prealignment.pose = aboutIsocenter(result.prealignment.pose);
   result.ok = result.failures.empty();
   progress.Done();
   return result;

@@ -57,7 +57,14 @@ cv::Mat Grey8(const std::vector<uint16_t>& image, int columns, int rows, const s
       return static_cast<double>(*nth);
     };
     low = at(0.01);
-    high = std::max(at(0.99), low + 1.0);
+    high = at(0.99);
+    if (high - low < 1.0) // an object on less than 1 % of a flat image (a bone's DRR): its whole range
+    {
+      const auto [least, most] = std::minmax_element(values.begin(), values.end());
+      low = *least;
+      high = *most;
+    }
+    high = std::max(high, low + 1.0);
   }
   cv::Mat grey(rows, columns, CV_8UC1);
   for (int row = 0; row < rows; ++row)

@@ -56,7 +56,7 @@ ReportView ReportViewOf(const RegistrationRecord& record, size_t index, const Re
   v.mask = std::move(mask);
   if (entropyMask) // the same computation as the registration's, from the same X-ray and ROI
     v.entropy = ComputeEntropyMask(v.xray.data(), v.columns, v.rows, v.roi.empty() ? nullptr : v.roi.data()).entropy;
-  v.drrStart = RenderDRR(drr, view, Pose{});
+  v.drrStart = RenderDRR(drr, view, record.initialPose);
   v.drrFinal = RenderDRR(drr, view, record.misalignment);
   v.similarity = record.similarity.at(index);
   v.explained = record.explained.at(index);

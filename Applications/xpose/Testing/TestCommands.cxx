@@ -421,6 +421,57 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   EXPECT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(check); }), xp::ExitBadInput);
 }
 
+// Two frames of a moving patient: each registered from the previous result, one row each in
+// poses.csv with the columns, both ok and near their truth; a frame with one X-ray is
+// refused before any work.
+TEST(Commands, TrackRegistersFrameAfterFrame)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-track-1 cmd-track-2 cmd-track cmd-track-bad"), 0);
+  const char* truths[2] = { "5,-3,2,1,-1,1.5", "6,-2,2.5,1.5,-1,1" };
+  for (int f = 0; f < 2; ++f)
+  {
+    const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), truths[f], 20.0, false, "cmd-track-" + std::to_string(f + 1));
+    ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  }
+  xp::TrackOptions options;
+  options.registration = RegisterSimulated("cmd-track-1", "unused");
+  options.registration.xrays.clear();
+  options.frames = { "cmd-track-1/xray_A.png,cmd-track-1/xray_B.png", "cmd-track-2/xray_A.png,cmd-track-2/xray_B.png" };
+  options.outputDirectory = "cmd-track";
+  ASSERT_EQ(xp::GuardedRun("track", [&] { return xp::RunTrack(options); }), xp::ExitOk);
+  std::istringstream csv(ReadText("cmd-track/poses.csv"));
+  std::string header, row;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "frame,xray_a,xray_b,status,tx_mm,ty_mm,tz_mm,pitch_deg,roll_deg,yaw_deg,uncertainty_tx_mm,"
+                    "uncertainty_ty_mm,uncertainty_tz_mm,uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s");
+  int rows = 0;
+  while (std::getline(csv, row))
+  {
+    std::vector<std::string> cells;
+    std::stringstream in(row);
+    for (std::string cell; std::getline(in, cell, ',');)
+      cells.push_back(cell);
+    ASSERT_EQ(cells.size(), 17u) << row;
+    EXPECT_EQ(cells[3], "ok") << row;
+    const xp::Pose truth = xp::Pose::Parse(truths[rows], "truth");
+    EXPECT_NEAR(std::stod(cells[4]), truth.translation[0], 0.5) << row;
+    EXPECT_NEAR(std::stod(cells[6]), truth.translation[2], 0.5) << row;
+    EXPECT_NEAR(std::stod(cells[9]), truth.yaw, 0.3) << row;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 2);
+  EXPECT_TRUE(Exists("cmd-track/poses.json"));
+  // The second frame started where the first ended.
+  const xp::RegistrationRecord first = xp::ReadRegistrationRecord("cmd-track/frame-0001/result.json");
+  const xp::RegistrationRecord second = xp::ReadRegistrationRecord("cmd-track/frame-0002/result.json");
+  EXPECT_LT((second.initialPose.translation - first.misalignment.translation).norm(), 1e-6);
+
+  options.frames = { "cmd-track-1/xray_A.png", "cmd-track-2/xray_A.png,cmd-track-2/xray_B.png" };
+  options.outputDirectory = "cmd-track-bad";
+  EXPECT_EQ(xp::GuardedRun("track", [&] { return xp::RunTrack(options); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-track-bad/poses.csv"));
+}
+
 TEST(Commands, RegisterRefusesImagesOfSomethingElse)
 {
   // X-rays that show no patient like the CT (smooth random texture): status failed, exit 3.

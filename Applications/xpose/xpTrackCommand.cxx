@@ -1,0 +1,129 @@
+#include "xpCommands.h"
+
+#include "xpError.h"
+#include "xpImageIO.h"
+#include "xpRegistrationRecord.h"
+
+#include <json/json.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <sys/stat.h>
+
+namespace xp
+{
+
+namespace
+{
+
+/** "A.tif,B.tif" -> its files, each checked to exist (all frames before any work). */
+std::vector<std::string> FrameFiles(const std::string& frame, size_t index)
+{
+  std::vector<std::string> files;
+  std::stringstream in(frame);
+  for (std::string file; std::getline(in, file, ',');)
+  {
+    struct stat status;
+    if (file.empty() || stat(file.c_str(), &status) != 0)
+      throw InputError("--frames", "frame " + std::to_string(index + 1) + ": no such X-ray '" + file + "'");
+    files.push_back(file);
+  }
+  return files;
+}
+
+std::string FrameFolder(const std::string& root, size_t index)
+{
+  char name[32];
+  std::snprintf(name, sizeof(name), "/frame-%04zu", index + 1);
+  return root + name;
+}
+
+} // namespace
+
+int RunTrack(const TrackOptions& options)
+{
+  if (options.frames.empty())
+    throw InputError("--frames", "give at least one frame");
+  std::vector<std::vector<std::string>> frames;
+  for (size_t f = 0; f < options.frames.size(); ++f)
+  {
+    frames.push_back(FrameFiles(options.frames[f], f));
+    if (frames.back().size() != frames.front().size() || frames.back().size() < 2)
+      throw InputError("--frames", "frame " + std::to_string(f + 1) + " has " + std::to_string(frames.back().size()) +
+          " X-rays: give one per imager, comma-separated, the same number in every frame");
+  }
+  StagedOutputDirectory::CheckWritable(options.outputDirectory);
+  StagedOutputDirectory output(options.outputDirectory);
+
+  std::ostringstream csv;
+  csv << "frame";
+  for (size_t v = 0; v < frames.front().size(); ++v)
+    csv << ",xray_" << static_cast<char>('a' + v);
+  csv << ",status,tx_mm,ty_mm,tz_mm,pitch_deg,roll_deg,yaw_deg,uncertainty_tx_mm,uncertainty_ty_mm,uncertainty_tz_mm,"
+         "uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s\n";
+  Json::Value poses(Json::arrayValue);
+  std::string start = options.registration.initialPose;
+  bool allOk = true;
+  for (size_t f = 0; f < frames.size(); ++f)
+  {
+    std::printf("frame %zu of %zu\n", f + 1, frames.size());
+    RegisterOptions frame = options.registration;
+    frame.xrays = frames[f];
+    frame.initialPose = start;
+    frame.globalSearch = f == 0 && options.registration.globalSearch;
+    frame.outputDirectory = output.Path(FrameFolder("", f).substr(1));
+    if (!options.reportDirectory.empty())
+      frame.reportDirectory = FrameFolder(options.reportDirectory, f);
+    const int code = RunRegister(frame);
+    if (code != ExitOk && code != ExitRegistrationFailed)
+      return code;
+    const RegistrationRecord record = ReadRegistrationRecord(frame.outputDirectory + "/result.json");
+    allOk = allOk && record.ok;
+    // The next frame starts where this one ended: a motion between frames is small, and a failed
+    // frame's end is still the best guess of where the bone is.
+    const std::array<double, 6> p = record.misalignment.Parameters();
+    std::ostringstream pose;
+    pose << std::setprecision(10) << p[0] << "," << p[1] << "," << p[2] << "," << p[3] << "," << p[4] << "," << p[5];
+    start = pose.str();
+
+    csv << f + 1;
+    for (const std::string& file : frames[f])
+      csv << "," << file;
+    csv << "," << (record.ok ? "ok" : "failed");
+    csv << std::setprecision(6);
+    for (double value : p)
+      csv << "," << value;
+    for (double value : record.uncertainty)
+      csv << "," << value;
+    csv << "," << record.totalSeconds << "\n";
+    Json::Value item;
+    item["frame"] = static_cast<Json::UInt64>(f + 1);
+    for (const std::string& file : frames[f])
+      item["xrays"].append(file);
+    item["status"] = record.ok ? "ok" : "failed";
+    for (size_t k = 0; k < 6; ++k)
+    {
+      static const char* names[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
+      item["misalignment"][names[k]] = p[k];
+      item["uncertainty"][names[k]] =
+        std::isfinite(record.uncertainty[k]) ? Json::Value(record.uncertainty[k]) : Json::Value(Json::nullValue); // no maximum
+    }
+    for (const std::string& reason : record.Reasons())
+      item["reasons"].append(reason);
+    item["time_s"] = record.totalSeconds;
+    poses.append(item);
+  }
+  std::ofstream(output.Path("poses.csv")) << csv.str();
+  Json::StreamWriterBuilder writer;
+  writer["indentation"] = "  ";
+  std::ofstream(output.Path("poses.json")) << Json::writeString(writer, poses) << "\n";
+  output.Commit();
+  std::printf("wrote poses.csv and poses.json (%zu frames, %s) to %s\n", frames.size(), allOk ? "all ok" : "NOT all ok",
+    options.outputDirectory.c_str());
+  return allOk ? ExitOk : ExitRegistrationFailed;
+}
+
+} // namespace xp
