@@ -133,8 +133,9 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
   if (!(evidence.peakMargin >= settings.minPeakMargin))
     failures.push_back({ GateCode::NotDistinct, -1,
       Format("on a similarity the optimiser did not use (the pixels its masks left out as well) the result leads the "
-             "poses 3 mm and 1.5 degrees away by %.1f %% (< %.1f %%): the images do not single out this pose",
-        100.0 * evidence.peakMargin, 100.0 * settings.minPeakMargin) });
+             "poses %.1f mm and %.1f degrees away", settings.landscapeCheckMM, settings.landscapeCheckDegrees) +
+        Format(" by %.1f %% (< %.1f %%): the images do not single out this pose", 100.0 * evidence.peakMargin,
+          100.0 * settings.minPeakMargin) });
   static const char* axes[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };
   for (int a = 0; a < 6; ++a)
   {
