@@ -49,6 +49,8 @@ const char* GateCodeName(GateCode code)
       return "uncertain";
     case GateCode::HalvesDisagree:
       return "halves_disagree";
+    case GateCode::RestartsDisagree:
+      return "restarts_disagree";
   }
   return "unknown";
 }
@@ -128,6 +130,16 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
       Format("two searches, from the pre-alignment and 1.5 mm / 1.5 degrees beside it, ended %.2f mm and %.2f degrees "
              "apart at full resolution: the images do not fix the pose",
         evidence.searchApartMM, evidence.searchApartDegrees) });
+  // Each start around the result must come back to it: a pose that its own neighbourhood's
+  // searches leave is one stall among many, however well its gate measures read.
+  if (evidence.restartsApartMM >= 0.0 &&
+    !(evidence.restartsApartMM <= settings.maxSearchDisagreementMM &&
+      evidence.restartsApartDegrees <= std::max(settings.maxSearchDisagreementDegrees, 0.5)))
+    failures.push_back({ GateCode::RestartsDisagree, -1,
+      Format("refinements restarted 2 mm and 2 degrees around the result ended up to %.2f mm and %.2f degrees from it "
+             "(> %.2f mm or degrees): the images do not fix the pose",
+        evidence.restartsApartMM, evidence.restartsApartDegrees,
+        std::max(settings.maxSearchDisagreementMM, std::max(settings.maxSearchDisagreementDegrees, 0.5))) });
   // A similarity the optimiser never saw must peak at the result too: another patient's X-rays
   // and anatomy no pose fits give a result that only the optimised, masked objective favours.
   if (!(evidence.peakMargin >= settings.minPeakMargin))

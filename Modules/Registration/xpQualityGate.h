@@ -37,7 +37,8 @@ enum class GateCode
   ViewDisagrees,       ///< a view's own 2D registration still wants to move
   NotDistinct,         ///< a similarity the optimiser did not use scores a neighbouring pose higher
   Uncertain,           ///< along some axis the objective is too flat (or no maximum) at the result
-  HalvesDisagree       ///< a view's halves, registered each on its own, move apart: no rigid fit
+  HalvesDisagree,      ///< a view's halves, registered each on its own, move apart: no rigid fit
+  RestartsDisagree     ///< refinements from starts around the result end elsewhere (bones)
 };
 
 /** Stable lower-case name of a code, as result.json writes it ("low_explained", ...). */
@@ -82,6 +83,8 @@ struct GateEvidence
   std::vector<ViewEvidence> views;
   std::array<double, 6> uncertainty{}; ///< per axis: mm, mm, mm, degrees, degrees, degrees
   double peakMargin = 0.0;             ///< the result's least lead over held-out neighbours
+  /** Refinements restarted around the result (bones; negative = not run): the farthest end. */
+  double restartsApartMM = -1.0, restartsApartDegrees = -1.0;
 };
 
 /** The failures, in a fixed order (whole result, then each view); empty = ok. */

@@ -149,7 +149,8 @@ GateCode CodeNamed(const std::string& name, const Fields& fields)
 {
   for (GateCode code : { GateCode::InvalidInput, GateCode::NotConverged, GateCode::TranslationTooLarge,
          GateCode::RotationTooLarge, GateCode::AmbiguousPose, GateCode::TooFewPixels, GateCode::LowExplained, GateCode::UncoveredAnatomy,
-         GateCode::ViewDisagrees, GateCode::NotDistinct, GateCode::Uncertain, GateCode::HalvesDisagree })
+         GateCode::ViewDisagrees, GateCode::NotDistinct, GateCode::Uncertain, GateCode::HalvesDisagree,
+         GateCode::RestartsDisagree })
   {
     if (name == GateCodeName(code))
       return code;
@@ -170,6 +171,9 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.ok = result.ok;
   record.misalignment = result.misalignment;
   record.initialPose = result.start;
+  record.boneOnly = result.boneOnly;
+  record.restartsApartMM = result.restartsApartMM;
+  record.restartsApartDegrees = result.restartsApartDegrees;
   record.correction = result.correction;
   record.viewNames = viewNames;
   record.similarity = result.mutualInformation;
@@ -204,6 +208,12 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   root["misalignment"] = PoseValue(r.misalignment);
   root["correction"] = PoseValue(r.correction);
   root["initial_pose"] = PoseValue(r.initialPose);
+  root["bone_only"] = r.boneOnly;
+  if (r.restartsApartMM >= 0.0)
+  {
+    root["restarts_apart"]["mm"] = r.restartsApartMM;
+    root["restarts_apart"]["degrees"] = r.restartsApartDegrees;
+  }
   root["convention"] = CorrectionConvention;
   root["views"] = List(r.viewNames);
   root["similarity"] = PerView(r.viewNames, r.similarity);

@@ -42,6 +42,8 @@ struct RegistrationRecord
   bool ok = false;
   Pose misalignment, correction;
   Pose initialPose; ///< where the search began (--initial-pose; zero: the planned set-up)
+  bool boneOnly = false;                                   ///< matched within the bone's shadow
+  double restartsApartMM = -1.0, restartsApartDegrees = -1.0; ///< bones: restarts' farthest end (written only)
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
   /** Per view, when the CT coverage mask was on: the anatomy each X-ray shows beyond the CT's

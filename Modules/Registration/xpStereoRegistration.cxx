@@ -713,6 +713,26 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       std::swap(refined[0], refined[1]);
   }
   const PoseOptimizerResult& fineResult = refined.front();
+  if (result.boneOnly)
+  {
+    // Four refinements from 2 mm and 2 degrees around the result, each axis's sign changing from
+    // start to start (rotations about the bone's centre): they must all come back.
+    BeginStage(result, "restarts", stageStart);
+    evidence.restartsApartMM = evidence.restartsApartDegrees = 0.0;
+    const auto objective = [&](const Pose& p) { return Traced(result, fine.Evaluate(p)); };
+    for (int k = 0; k < 4; ++k)
+    {
+      std::array<double, 6> p = fineResult.pose.Parameters();
+      for (int a = 0; a < 6; ++a)
+        p[a] += ((k < 2 ? k : a + k) % 2 == 0 ? 2.0 : -2.0);
+      const PoseOptimizerResult again = MaximizePose(objective, Pose::FromParameters(p.data()), fineSettings);
+      result.evaluations += again.evaluations;
+      evidence.restartsApartMM = std::max(evidence.restartsApartMM, TranslationApart(again.pose, fineResult.pose));
+      evidence.restartsApartDegrees = std::max(evidence.restartsApartDegrees, RotationApart(again.pose, fineResult.pose));
+    }
+    result.restartsApartMM = evidence.restartsApartMM;
+    result.restartsApartDegrees = evidence.restartsApartDegrees;
+  }
   BeginStage(result, "landscape", stageStart);
   progress.Begin("landscape", 0.9, 0.95);
   {

@@ -123,6 +123,8 @@ struct StereoRegistrationResult
   Pose start;        ///< the settings' initial pose, where the search began
   /** The volume is a bone cut out of a CT (OuterSurfaceIsBone): only the bone's shadow is matched. */
   bool boneOnly = false;
+  /** With boneOnly: the farthest end of the refinements restarted around the result. */
+  double restartsApartMM = -1.0, restartsApartDegrees = -1.0;
   Pose misalignment;
   Pose correction;                   ///< misalignment.Inverse(): what the table should do
   PreAlignmentResult prealignment;

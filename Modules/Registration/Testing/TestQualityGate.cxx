@@ -191,3 +191,21 @@ TEST(QualityGate, MotionLimitsCountFromTheInitialPose)
   e.misalignment = xp::Pose::Parse("151,-61,41.5,80.5,-30,119", "result");
   EXPECT_EQ(Codes(e), (Codes_t{ xp::GateCode::TranslationTooLarge, xp::GateCode::RotationTooLarge }));
 }
+
+// A bone's refinements restarted around the result must come back within 0.5 mm and 0.5
+// degrees; not run (negative) for a body.
+TEST(QualityGate, RestartsThatDoNotComeBackFail)
+{
+  xp::GateEvidence e = GoodEvidence();
+  e.restartsApartMM = 0.3;
+  e.restartsApartDegrees = 0.45;
+  EXPECT_TRUE(Codes(e).empty());
+  e.restartsApartMM = 0.6;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::RestartsDisagree });
+  e.restartsApartMM = 0.3;
+  e.restartsApartDegrees = 0.55;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::RestartsDisagree });
+  e.restartsApartDegrees = std::nan("");
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::RestartsDisagree });
+  EXPECT_STREQ(xp::GateCodeName(xp::GateCode::RestartsDisagree), "restarts_disagree");
+}
