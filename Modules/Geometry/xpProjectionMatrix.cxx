@@ -88,6 +88,23 @@ XRayView ViewFromProjectionMatrix(const ProjectionMatrix& projection, const Eige
 namespace
 {
 
+/** `word` as a finite number; throws xp::InputError naming the file and the line otherwise. */
+double FiniteNumber(const std::string& word, const std::string& path, int line)
+{
+  size_t used = 0;
+  double value = 0.0;
+  try
+  {
+    value = std::stod(word, &used);
+  }
+  catch (const std::exception&)
+  {
+  }
+  if (used != word.size() || !std::isfinite(value))
+    throw InputError(path, "line " + std::to_string(line) + ": '" + word + "' is not a finite number");
+  return value;
+}
+
 /** `count` numbers from a text file, '#' starting a comment. */
 std::vector<double> ReadNumbers(const std::string& path, size_t count, const std::string& what)
 {
@@ -100,20 +117,7 @@ std::vector<double> ReadNumbers(const std::string& path, size_t count, const std
   {
     std::istringstream words(line.substr(0, line.find('#')));
     for (std::string word; words >> word;)
-    {
-      size_t used = 0;
-      double value = 0.0;
-      try
-      {
-        value = std::stod(word, &used);
-      }
-      catch (const std::exception&)
-      {
-      }
-      if (used != word.size() || !std::isfinite(value))
-        throw InputError(path, "line " + std::to_string(number) + ": '" + word + "' is not a finite number");
-      values.push_back(value);
-    }
+      values.push_back(FiniteNumber(word, path, number));
   }
   if (values.size() != count)
     throw InputError(path, "holds " + std::to_string(values.size()) + " numbers; " + what + " has " + std::to_string(count));
@@ -192,20 +196,7 @@ CameraCalibration ReadCameraCalibration(const std::string& path)
     std::replace(line.begin(), line.end(), ',', ' ');
     std::istringstream words(line);
     for (std::string word; words >> word;)
-    {
-      size_t used = 0;
-      double value = 0.0;
-      try
-      {
-        value = std::stod(word, &used);
-      }
-      catch (const std::exception&)
-      {
-      }
-      if (used != word.size() || !std::isfinite(value))
-        throw InputError(path, "line " + std::to_string(number) + ": '" + word + "' is not a finite number");
-      numbers[static_cast<size_t>(current)].push_back(value);
-    }
+      numbers[static_cast<size_t>(current)].push_back(FiniteNumber(word, path, number));
   }
   for (size_t k = 0; k < sections.size(); ++k)
     if (numbers[k].size() != sections[k].second)
