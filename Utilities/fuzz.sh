@@ -11,7 +11,7 @@ runs=${1:-1000000}
 seconds=${2:-1800}
 shift $(( $# > 2 ? 2 : $# )) || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(DICOMSeries DICOMXRay PNG MetaImage NIfTI Geometry)
+[ ${#targets[@]} -gt 0 ] || targets=(DICOMSeries DICOMXRay PNG TIFF MetaImage NIfTI Geometry)
 command -v clang++ >/dev/null || { echo "fuzz.sh: needs clang (apt-get install clang libclang-rt-14-dev)"; exit 2; }
 
 build=build-fuzz
@@ -21,13 +21,14 @@ cmake --build "$build" --target xpose TestXPIO $(printf 'xpFuzz%s ' "${targets[@
 # Seeds: what the IO tests write, and a small phantom CT, DRR and mask made by xpose.
 work="$build/fuzz"
 seeds="$work/seeds"
-rm -rf "$seeds" && mkdir -p "$seeds"/{DICOMSeries,DICOMXRay,PNG,MetaImage,NIfTI,Geometry} "$work/made"
+rm -rf "$seeds" && mkdir -p "$seeds"/{DICOMSeries,DICOMXRay,PNG,TIFF,MetaImage,NIfTI,Geometry} "$work/made"
 export ASAN_OPTIONS=detect_leaks=0
-(cd "$build/Modules/IO/Testing" && ./../../../bin/TestXPIO --gtest_filter='VolumeIO.*:DICOMXRay.*' >/dev/null)
+(cd "$build/Modules/IO/Testing" && ./../../../bin/TestXPIO --gtest_filter='VolumeIO.*:DICOMXRay.*:TIFF.*' >/dev/null)
 io="$build/Modules/IO/Testing"
 cp "$io/tmp-mha/ct.mha" "$seeds/MetaImage/"
 cp "$io/tmp-nifti/ct.nii.gz" "$seeds/NIfTI/" && gzip -dc "$io/tmp-nifti/ct.nii.gz" > "$seeds/NIfTI/ct.nii"
 cp "$io/tmp-dicom-dx/dx.dcm" "$io/tmp-dicom-cr/cr.dcm" "$seeds/DICOMXRay/"
+cp "$io"/tmp-tiff-xray/x16.tif "$io"/tmp-tiff-xray/x8.tif "$io"/tmp-tiff-volume/bone.tif "$seeds/TIFF/"
 made="$work/made"
 rm -rf "$made" && mkdir -p "$made"
 "$build/bin/xpose" phantom --out "$made/ct" --spacing 8 >/dev/null

@@ -146,6 +146,12 @@ TEST(ReaderRobustness, EveryRegressionInputIsRefused)
   }
   for (const std::string& file : FilesIn(Regressions + "Geometry"))
     Refusal([&] { xp::ReadStereoGeometry(file); }, file), ++count;
+  for (const std::string& file : FilesIn(Regressions + "TIFF"))
+  {
+    // Refused as an X-ray and as a volume stack alike.
+    Refusal([&] { xp::ReadXRayTIFF(file); }, file), ++count;
+    Refusal([&] { xp::ReadCTVolume(file, "", { 0.5, 0.5, 1.0 }); }, file);
+  }
   EXPECT_GE(count, 20) << "the regression corpus went missing";
 }
 
