@@ -1,6 +1,7 @@
 // Finding a bone from nothing: a small asymmetric object turned and moved far from the planned
 // set-up, found by the global search in both views, then registered from there.
 #include "xpGlobalSearch.h"
+#include "xpHeadPhantom.h"
 #include "xpReferenceGeometry.h"
 #include "xpStereoRegistration.h"
 
@@ -106,4 +107,17 @@ TEST(GlobalSearch, FindsASmallBoneTurnedAndMovedFarFromThePlan)
   {
     EXPECT_LT(DegreesApart(result.misalignment, truth), 1.0) << result.misalignment.ToString();
   }
+}
+
+// A bone cut out of a CT has bone for its surface; a head has skin.
+TEST(GlobalSearch, ABoneIsToldFromABody)
+{
+  Eigen::Isometry3d planned;
+  EXPECT_TRUE(xp::OuterSurfaceIsBone(Bone(planned)));
+  const xp::CTVolumeData head = xp::MakeHeadPhantom(4.0);
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  indexToCT.linear() = head.direction * head.spacing.asDiagonal();
+  indexToCT.translation() = head.origin;
+  EXPECT_FALSE(xp::OuterSurfaceIsBone(
+    xp::AttenuationVolume(head.hounsfield.data(), head.dimensions, indexToCT, xp::WaterAttenuationPerMM)));
 }
