@@ -181,12 +181,7 @@ namespace
 /** A TIFF volume has no planned set-up to start from: the global search finds the start. */
 bool UsesGlobalSearch(const RegisterOptions& options)
 {
-  const auto tiff = [](const std::string& path)
-  {
-    const std::string lower = [&] { std::string s = path; for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c))); return s; }();
-    return lower.size() > 4 && (lower.rfind(".tif") == lower.size() - 4 || lower.rfind(".tiff") == lower.size() - 5);
-  };
-  return options.globalSearch || (options.initialPose.empty() && tiff(options.ct));
+  return options.globalSearch || (options.initialPose.empty() && IsTIFFVolumePath(options.ct));
 }
 
 /** The start of a registration that has none (xpGlobalSearch.h): the best candidate. */

@@ -34,11 +34,12 @@ std::vector<std::string> FrameFiles(const std::string& frame, size_t index)
   return files;
 }
 
-std::string FrameFolder(const std::string& root, size_t index)
+/** "frame-0001" for the first frame: each frame's folder, under the output and the report. */
+std::string FrameName(size_t index)
 {
   char name[32];
-  std::snprintf(name, sizeof(name), "/frame-%04zu", index + 1);
-  return root + name;
+  std::snprintf(name, sizeof(name), "frame-%04zu", index + 1);
+  return name;
 }
 
 } // namespace
@@ -74,9 +75,9 @@ int RunTrack(const TrackOptions& options)
     frame.xrays = frames[f];
     frame.initialPose = start;
     frame.globalSearch = f == 0 && options.registration.globalSearch;
-    frame.outputDirectory = output.Path(FrameFolder("", f).substr(1));
+    frame.outputDirectory = output.Path(FrameName(f));
     if (!options.reportDirectory.empty())
-      frame.reportDirectory = FrameFolder(options.reportDirectory, f);
+      frame.reportDirectory = options.reportDirectory + "/" + FrameName(f);
     const int code = RunRegister(frame);
     if (code != ExitOk && code != ExitRegistrationFailed)
       return code;

@@ -62,6 +62,11 @@ CTVolume ReadTIFFVolume(const std::string& path, const std::array<double, 3>& vo
 
 } // namespace
 
+bool IsTIFFVolumePath(const std::string& path)
+{
+  return EndsWith(path, ".tif") || EndsWith(path, ".tiff");
+}
+
 std::array<double, 3> ParseVoxelSize(const std::string& text, const std::string& option)
 {
   std::array<double, 3> size{ 0, 0, 0 };
@@ -90,7 +95,7 @@ CTVolume ReadCTVolume(const std::string& path, const std::string& seriesUID, con
   {
     throw InputError(path, "no such file or folder");
   }
-  const bool tiff = EndsWith(path, ".tif") || EndsWith(path, ".tiff");
+  const bool tiff = IsTIFFVolumePath(path);
   if (voxelSizeMM[0] > 0.0 && !tiff)
   {
     throw InputError("--voxel-size", "is for TIFF volumes only: " + path + " carries its own voxel size");

@@ -44,6 +44,9 @@ struct VTKXPIO_EXPORT CTVolume
 VTKXPIO_EXPORT CTVolume ReadCTVolume(
   const std::string& path, const std::string& seriesUID = "", const std::array<double, 3>& voxelSizeMM = { 0, 0, 0 });
 
+/** Whether ReadCTVolume reads `path` as a TIFF stack (.tif or .tiff, any case). */
+VTKXPIO_EXPORT bool IsTIFFVolumePath(const std::string& path);
+
 /** "0.4,0.4,0.625" -> three positive sizes (mm); "" -> zeros (none given). Throws xp::InputError
  *  naming `option`. */
 VTKXPIO_EXPORT std::array<double, 3> ParseVoxelSize(const std::string& text, const std::string& option);

@@ -164,36 +164,37 @@ std::vector<uint8_t> TransferMask(const std::vector<uint8_t>& mask, const XRayVi
   return out;
 }
 
+namespace
+{
+
+/** One axis of DilateMask: `lines` lines of `length` pixels, `step` apart along a line and
+ *  `lineStep` between lines; a pixel is set when a 1 lies within `radius` of it on its line. */
+void DilateLines(const uint8_t* in, uint8_t* out, int lines, int length, size_t step, size_t lineStep, int radius)
+{
+  for (int line = 0; line < lines; ++line)
+  {
+    const size_t first = line * lineStep;
+    int last = -radius - 1; // the last 1 at or before position p
+    for (int p = 0; p < length + radius; ++p)
+    {
+      if (p < length && in[first + p * step])
+        last = p;
+      const int at = p - radius;
+      if (at >= 0 && last >= at - radius)
+        out[first + at * step] = 1;
+    }
+  }
+}
+
+} // namespace
+
 std::vector<uint8_t> DilateMask(const std::vector<uint8_t>& mask, int columns, int rows, int radius)
 {
   if (radius <= 0)
     return mask;
-  // Per row, then per column: a pixel is set when a 1 lies within `radius` of it.
   std::vector<uint8_t> across(mask.size(), 0), out(mask.size(), 0);
-  for (int r = 0; r < rows; ++r)
-  {
-    int last = -radius - 1; // the last 1 at or before column c
-    for (int c = 0; c < columns + radius; ++c)
-    {
-      if (c < columns && mask[static_cast<size_t>(r) * columns + c])
-        last = c;
-      const int at = c - radius;
-      if (at >= 0 && last >= at - radius)
-        across[static_cast<size_t>(r) * columns + at] = 1;
-    }
-  }
-  for (int c = 0; c < columns; ++c)
-  {
-    int last = -radius - 1;
-    for (int r = 0; r < rows + radius; ++r)
-    {
-      if (r < rows && across[static_cast<size_t>(r) * columns + c])
-        last = r;
-      const int at = r - radius;
-      if (at >= 0 && last >= at - radius)
-        out[static_cast<size_t>(at) * columns + c] = 1;
-    }
-  }
+  DilateLines(mask.data(), across.data(), rows, columns, 1, static_cast<size_t>(columns), radius);
+  DilateLines(across.data(), out.data(), columns, rows, static_cast<size_t>(columns), 1, radius);
   return out;
 }
 

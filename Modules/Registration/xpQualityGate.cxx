@@ -71,6 +71,8 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
          std::make_pair(settings.maxUncovered, "maxUncovered"), std::make_pair(settings.maxUncertaintyMM, "maxUncertaintyMM"),
          std::make_pair(settings.maxUncertaintyDegrees, "maxUncertaintyDegrees"),
          std::make_pair(settings.maxHalvesApartMM, "maxHalvesApartMM"),
+         std::make_pair(settings.maxRestartsApartMM, "maxRestartsApartMM"),
+         std::make_pair(settings.maxRestartsApartDegrees, "maxRestartsApartDegrees"),
          std::make_pair(settings.landscapeNearMM, "landscapeNearMM"), std::make_pair(settings.landscapeNearDegrees, "landscapeNearDegrees"),
          std::make_pair(settings.landscapeCheckMM, "landscapeCheckMM"), std::make_pair(settings.landscapeCheckDegrees, "landscapeCheckDegrees") })
   {
@@ -132,14 +134,13 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
         evidence.searchApartMM, evidence.searchApartDegrees) });
   // Each start around the result must come back to it: a pose that its own neighbourhood's
   // searches leave is one stall among many, however well its gate measures read.
-  if (evidence.restartsApartMM >= 0.0 &&
-    !(evidence.restartsApartMM <= settings.maxSearchDisagreementMM &&
-      evidence.restartsApartDegrees <= std::max(settings.maxSearchDisagreementDegrees, 0.5)))
+  if (evidence.restartsApartMM >= 0.0 && !(evidence.restartsApartMM <= settings.maxRestartsApartMM &&
+                                              evidence.restartsApartDegrees <= settings.maxRestartsApartDegrees))
     failures.push_back({ GateCode::RestartsDisagree, -1,
-      Format("refinements restarted 2 mm and 2 degrees around the result ended up to %.2f mm and %.2f degrees from it "
-             "(> %.2f mm or degrees): the images do not fix the pose",
-        evidence.restartsApartMM, evidence.restartsApartDegrees,
-        std::max(settings.maxSearchDisagreementMM, std::max(settings.maxSearchDisagreementDegrees, 0.5))) });
+      Format("refinements restarted 2 mm and 2 degrees around the result ended up to %.2f mm and %.2f degrees from it",
+        evidence.restartsApartMM, evidence.restartsApartDegrees) +
+        Format(" (> %.2f mm or %.2f degrees): the images do not fix the pose", settings.maxRestartsApartMM,
+          settings.maxRestartsApartDegrees) });
   // A similarity the optimiser never saw must peak at the result too: another patient's X-rays
   // and anatomy no pose fits give a result that only the optimised, masked objective favours.
   if (!(evidence.peakMargin >= settings.minPeakMargin))
