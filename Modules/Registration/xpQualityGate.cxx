@@ -86,6 +86,10 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
   {
     throw InputError("registration settings: coverageMinExcess", "must be between 0 and 1");
   }
+  if (!(settings.boneCorrelationHighPassMM >= 0.0 && std::isfinite(settings.boneCorrelationHighPassMM)))
+  {
+    throw InputError("registration settings: boneCorrelationHighPassMM", "must be finite and not negative");
+  }
   if (!(settings.minValidPixelsPerCell >= 0.0 && settings.minValidPixelsPerCell <= 1000.0))
   {
     throw InputError("registration settings: minValidPixelsPerCell", "must be between 0 and 1000");

@@ -600,6 +600,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const auto aboutIsocenter = [&](const Pose& pose) { return Pose::FromTransform(pose.ToTransform(isocenter), roomIsocenter); };
   ProgressReporter progress(observer);
   const bool pyramid = settings.pyramid && inputViews[0].view.Columns() >= 256 && inputViews[0].view.Rows() >= 192;
+  const double correlationMM = result.boneOnly ? settings.boneCorrelationHighPassMM : 0.0;
 
   // 1. Pre-alignment (5+1 DOF) with the user ROIs only. Half-size images are rendered from a
   // half-resolution CT where its voxels stay fine enough: their pixels are twice as wide, and a
@@ -667,8 +668,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   std::vector<Pose> searchEnds;
   {
     const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
-    StereoSimilarity searchSimilarity(
-      coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins, { settings.equalizedLevels, 0.0 });
+    StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins,
+      { settings.equalizedLevels, 0.0, correlationMM });
     searchEnds = SearchFromTwoStarts(searchSimilarity, result.prealignment.pose, settings, pyramid, result, progress, stageStart);
     result.drrCount += searchSimilarity.RenderedDRRs();
   }
@@ -691,8 +692,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   }
   if (result.boneOnly)
     AndShadow(masked, volume, MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter), settings.boneShadowFineMarginMM);
-  StereoSimilarity fine(
-    volume, plannedCTToRoom, isocenter, masked, settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
+  StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
+    { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
   const PoseOptimizerSettings fineSettings = RefinementSettings(settings);
   std::vector<PoseOptimizerResult> refined;
   for (size_t e = 0; e < searchEnds.size(); ++e)
@@ -727,12 +728,18 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     BeginStage(result, "restarts", stageStart);
     evidence.restartsApartMM = evidence.restartsApartDegrees = 0.0;
     const auto objective = [&](const Pose& p) { return Traced(result, fine.Evaluate(p)); };
+    // Steps of the restarts' own size: the refinement's quarter-millimetre steps polish, they
+    // do not travel 2 mm, and a stall would count as a disagreement of the images.
+    PoseOptimizerSettings restartSettings = fineSettings;
+    restartSettings.initialStepMM = 1.0;
+    restartSettings.initialStepDegrees = 1.0;
+    restartSettings.maxRestarts = 1;
     for (int k = 0; k < 4; ++k)
     {
       std::array<double, 6> p = fineResult.pose.Parameters();
       for (int a = 0; a < 6; ++a)
         p[a] += ((k < 2 ? k : a + k) % 2 == 0 ? 2.0 : -2.0);
-      const PoseOptimizerResult again = MaximizePose(objective, Pose::FromParameters(p.data()), fineSettings);
+      const PoseOptimizerResult again = MaximizePose(objective, Pose::FromParameters(p.data()), restartSettings);
       result.evaluations += again.evaluations;
       evidence.restartsApartMM = std::max(evidence.restartsApartMM, TranslationApart(again.pose, fineResult.pose));
       evidence.restartsApartDegrees = std::max(evidence.restartsApartDegrees, RotationApart(again.pose, fineResult.pose));
@@ -758,8 +765,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     }
     if (result.boneOnly)
       AndShadow(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM);
-    StereoSimilarity heldOut(
-      coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins, { settings.equalizedLevels, settings.fineHighPassMM });
+    StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
+      { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
     const auto objective = [&](const Pose& p)
     {
       const double value = Traced(result, fine.Evaluate(p));

@@ -38,6 +38,9 @@ struct StereoRegistrationSettings
    *  bones that the X-ray shows around it are no part of it. */
   bool detectBoneOnly = true;
   double boneShadowSearchMarginMM = 15.0, boneShadowFineMarginMM = 5.0;
+  /** A bone's 6-DOF stages maximise the correlation of both images' structure (less a low-pass
+   *  of this sd, mm on the panel; xpStereoSimilarity.h), not MI; 0 = MI. */
+  double boneCorrelationHighPassMM = 10.0;
   /** gate, bones: four refinements restarted 2 mm and 2 degrees around the result must all end
    *  within these of it (restarts_disagree). */
   double maxRestartsApartMM = 0.5, maxRestartsApartDegrees = 0.5;

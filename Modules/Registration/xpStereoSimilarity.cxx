@@ -4,6 +4,7 @@
 #include "xpImageLevels.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace xp
 {
@@ -18,6 +19,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
   , Histogram(bins)
   , Equalize(levels.equalize)
   , HighPassMM(levels.equalize ? levels.highPassSigmaMM : 0.0)
+  , CorrelationMM(levels.correlationHighPassMM)
 {
   if (this->Items.empty())
   {
@@ -35,6 +37,14 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     this->DRRs.emplace_back(pixels);
     this->DRRRanks.emplace_back(pixels);
     this->XRayRanks.push_back(this->Equalize ? EqualizedLevels(item.xray, item.mask) : std::vector<uint16_t>());
+    if (this->CorrelationMM > 0.0)
+    {
+      const std::vector<uint16_t> ranks = this->Equalize ? this->XRayRanks.back() : EqualizedLevels(item.xray, item.mask);
+      std::vector<float> structure(ranks.begin(), ranks.end());
+      SubtractLowPass(structure.data(), item.mask.empty() ? nullptr : item.mask.data(), item.view.Columns(), item.view.Rows(),
+        this->CorrelationMM / item.view.pixelSpacing[0]);
+      this->XRayStructure.push_back(std::move(structure));
+    }
     if (this->HighPassMM > 0.0)
     {
       // Ranks, less their shading, ranked again.
@@ -51,6 +61,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
   this->StructureLevels.resize(this->Items.size());
   this->Structure.resize(this->Items.size());
   this->LastMI.assign(this->Items.size(), 0.0);
+  this->LastNCC.assign(this->Items.size(), 0.0);
   this->DRRCurrent.assign(this->Items.size(), false);
 }
 
@@ -82,10 +93,37 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
       this->RankDRR(v);
     this->Histogram.Compute(this->XRayLevels(v).data(), this->LastDRRLevels(v).data(), count, mask, mask);
     this->LastMI[v] = this->Histogram.MutualInformation();
-    objective += this->LastMI[v] * this->LastMI[v];
+    if (this->CorrelationMM > 0.0)
+      objective += this->LastNCC[v] = this->CorrelateDRR(v);
+    else
+      objective += this->LastMI[v] * this->LastMI[v];
     ++this->DRRCount;
   }
   return objective;
+}
+
+double StereoSimilarity::CorrelateDRR(size_t v)
+{
+  const RegistrationView& item = this->Items[v];
+  const std::vector<float>& integral = this->Integrals[v];
+  const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
+  std::vector<float>& structure = this->Structure[v];
+  // Negated: more matter, less transmission, a lower rank in the X-ray.
+  structure.resize(integral.size());
+  for (size_t i = 0; i < integral.size(); ++i)
+    structure[i] = -integral[i];
+  SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), this->CorrelationMM / item.view.pixelSpacing[0]);
+  const std::vector<float>& xray = this->XRayStructure[v];
+  double n = 0, sx = 0, sy = 0, sxy = 0, sxx = 0, syy = 0;
+  for (size_t i = 0; i < structure.size(); ++i)
+  {
+    if (mask && !mask[i])
+      continue;
+    const double x = xray[i], y = structure[i];
+    n += 1, sx += x, sy += y, sxy += x * y, sxx += x * x, syy += y * y;
+  }
+  const double spread = n > 0 ? std::sqrt(std::max(0.0, (sxx - sx * sx / n) * (syy - sy * sy / n))) : 0.0;
+  return spread > 0.0 ? (sxy - sx * sy / n) / spread : 0.0;
 }
 
 void StereoSimilarity::RankDRR(size_t v)

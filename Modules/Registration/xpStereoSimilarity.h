@@ -40,6 +40,11 @@ struct SimilarityLevels
 {
   bool equalize = true;          ///< ranks; false: 12-bit values as they are
   double highPassSigmaMM = 0.0;  ///< with ranks: shading wider than this (mm on the panel) removed; 0 = kept
+  /** > 0: the objective is the correlation of the X-ray's ranks with the DRR's line integrals, each
+   *  less its low-pass of this sd (mm on the panel), summed over the views; MI is still measured.
+   *  A small bone among other bones: MI over its shadow follows whichever neighbour fills the
+   *  most bins, a correlation follows the bone's own outline and inside. */
+  double correlationHighPassMM = 0.0;
 };
 
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
@@ -59,6 +64,8 @@ public:
 
   /** MI per view of the last evaluation. */
   const std::vector<double>& LastMutualInformation() const { return this->LastMI; }
+  /** With a correlation objective: the correlation per view of the last evaluation. */
+  const std::vector<double>& LastCorrelation() const { return this->LastNCC; }
   /** The 12-bit DRR (transmission) of view v from the last evaluation (0 where masked). */
   const std::vector<uint16_t>& LastDRR(size_t v) const;
   /** The images as MI sees them: equalised levels, or the X-ray and the DRR as they are. */
@@ -70,6 +77,8 @@ public:
 private:
   /** The last DRR's line integrals of view v as levels. */
   void RankDRR(size_t v);
+  /** Correlation of view v's X-ray structure with the last DRR's (bone dark, as the ranks). */
+  double CorrelateDRR(size_t v);
 
   const AttenuationVolume& Volume;
   Eigen::Isometry3d Planned;
@@ -90,6 +99,9 @@ private:
   std::vector<LevelTable> IntegralLevels;
   std::vector<LevelTable> StructureLevels;
   std::vector<std::vector<float>> Structure; ///< scratch of the high-pass
+  double CorrelationMM = 0.0;
+  std::vector<std::vector<float>> XRayStructure; ///< with a correlation objective: ranks less their low-pass
+  std::vector<double> LastNCC;
 
   std::vector<double> LastMI;
   long long DRRCount = 0;

@@ -166,6 +166,9 @@ TEST(QualityGate, InvalidLimitsAreRefusedAndCodesHaveStableNames)
   settings = {};
   settings.coverageMinExcess = std::nan("");
   EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings = {};
+  settings.boneCorrelationHighPassMM = -1.0;
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
   EXPECT_NO_THROW(xp::ValidateGateLimits({}));
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::LowExplained), "low_explained");
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::AmbiguousPose), "ambiguous_pose");

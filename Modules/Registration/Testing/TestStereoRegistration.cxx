@@ -90,6 +90,29 @@ TEST(StereoSimilarity, PeaksAtTheTruePose)
   EXPECT_EQ(similarity.RenderedDRRs(), 10);
 }
 
+TEST(StereoSimilarity, CorrelationOfStructurePeaksAtTheTruePose)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("3,-2,1.5,1,-1,2", "truth");
+  std::vector<xp::RegistrationView> views = Simulate(scene, truth, 1);
+  xp::SimilarityLevels levels;
+  levels.correlationHighPassMM = 10.0;
+  xp::StereoSimilarity similarity(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, 32, levels);
+  const double atTruth = similarity.Evaluate(truth);
+  for (double correlation : similarity.LastCorrelation())
+    EXPECT_GT(correlation, 0.6); // ranks against line integrals: monotone, not linear
+  EXPECT_NEAR(atTruth, similarity.LastCorrelation()[0] + similarity.LastCorrelation()[1], 1e-12);
+  EXPECT_GT(similarity.LastMutualInformation()[0], 0.0); // MI is still measured for the gate
+  for (const char* off : { "4,-2,1.5,1,-1,2", "3,-2,2.5,1,-1,2", "3,-2,1.5,1,0,2", "3,-2,1.5,1,-1,3", "0,0,0,0,0,0" })
+    EXPECT_GT(atTruth, similarity.Evaluate(xp::Pose::Parse(off, "off"))) << off;
+  // Bone bright (a log image, not turned over as the registration turns it): the sign says so.
+  for (xp::RegistrationView& item : views)
+    for (uint16_t& grey : item.xray)
+      grey = static_cast<uint16_t>(4095 - grey);
+  xp::StereoSimilarity inverted(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, 32, levels);
+  EXPECT_LT(inverted.Evaluate(truth), -1.2);
+}
+
 TEST(PoseOptimizer, RecoversAKnownMisalignmentWithTheRightSigns)
 {
   Scene scene;
