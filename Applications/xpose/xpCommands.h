@@ -66,6 +66,23 @@ struct BenchOptions
   int repetitions = 3;
 };
 
+/** `xpose bench register`: registrations of simulated misalignments, timed per stage, once per
+ *  optimiser on the same trials. */
+struct BenchRegisterOptions
+{
+  std::string ct;
+  std::string series;
+  std::string geometry;
+  std::string scenario = "clinical";
+  std::string detector;             ///< empty: the scenario's own X-rays
+  int trials = 5;
+  std::string size = "512x384";
+  std::vector<std::string> optimizers{ "nelder-mead", "sbplx", "bobyqa" };
+  unsigned seed = 11;
+  double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
+  int threads = 0;
+};
+
 struct MaskOptions
 {
   std::string xray;           ///< 16-bit PNG with 12-bit values
@@ -194,6 +211,7 @@ int RunPhantom(const PhantomOptions& options);
 int RunGeometry(const GeometryOptions& options);
 int RunDRR(const DRROptions& options);
 int RunBenchDRR(const BenchOptions& options);
+int RunBenchRegister(const BenchRegisterOptions& options);
 int RunMask(const MaskOptions& options);
 int RunSimulate(const SimulateOptions& options);
 int RunRegister(const RegisterOptions& options);

@@ -107,7 +107,7 @@ CLI::App* AddDRRCommand(CLI::App& app, xp::DRROptions& options)
   return drrCommand;
 }
 
-CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options)
+CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchRegisterOptions& reg, CLI::App*& benchRegister)
 {
   CLI::App* benchCommand = app.add_subcommand("bench", "Measure and print performance figures");
   benchCommand->require_subcommand(1);
@@ -123,6 +123,24 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options)
     ->capture_default_str();
   benchDRR->add_option("--repetitions", options.repetitions, "Runs per figure (the median is printed)")
     ->capture_default_str();
+  benchRegister = benchCommand->add_subcommand(
+    "register", "Registrations of simulated misalignments: time, DRRs, rays and CPU use per stage, per optimiser on the same trials");
+  benchRegister->add_option("--ct", reg.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
+  benchRegister->add_option("--series", reg.series, "Series Instance UID when the folder holds several");
+  benchRegister->add_option("--geometry", reg.geometry, "Stereo geometry JSON")->required();
+  benchRegister->add_option("--scenario", reg.scenario, "X-rays: clinical (the physics simulator), plastimatch, noisy, ... (as evaluate)")
+    ->capture_default_str();
+  benchRegister->add_option("--detector", reg.detector, "Image format of the clinical and plastimatch scenarios (as evaluate)");
+  benchRegister->add_option("--trials", reg.trials, "Misalignments per optimiser (the same for each)")->capture_default_str();
+  benchRegister->add_option("--size", reg.size, "Registration resolution COLSxROWS")->capture_default_str();
+  benchRegister->add_option("--optimizers", reg.optimizers, "6-DOF optimisers compared")
+    ->check(CLI::IsMember(xp::PoseOptimizerMethodNames()))
+    ->capture_default_str();
+  benchRegister->add_option("--seed", reg.seed, "Seed of the trials and the noise")->capture_default_str();
+  benchRegister->add_option("--min-translation", reg.minTranslation, "Smallest initial translation error, mm")->capture_default_str();
+  benchRegister->add_option("--max-translation", reg.maxTranslation, "Largest initial translation error, mm")->capture_default_str();
+  benchRegister->add_option("--max-rotation", reg.maxRotation, "Largest initial error per angle, degrees")->capture_default_str();
+  benchRegister->add_option("--threads", reg.threads, "Threads (0: all cores)")->capture_default_str();
   return benchCommand;
 }
 
@@ -289,7 +307,9 @@ int main(int argc, char** argv)
   xp::DRROptions drr;
   CLI::App* drrCommand = AddDRRCommand(app, drr);
   xp::BenchOptions bench;
-  AddBenchCommand(app, bench); // its one subcommand, drr, is what runs when no other command does
+  xp::BenchRegisterOptions benchRegister;
+  CLI::App* benchRegisterCommand = nullptr;
+  AddBenchCommand(app, bench, benchRegister, benchRegisterCommand); // bench drr runs when no other command does
   xp::MaskOptions mask;
   CLI::App* maskCommand = AddMaskCommand(app, mask);
   xp::SimulateOptions simulate;
@@ -329,5 +349,7 @@ int main(int argc, char** argv)
     return xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); });
   if (drrCommand->parsed())
     return xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); });
+  if (benchRegisterCommand->parsed())
+    return xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(benchRegister); });
   return xp::GuardedRun("bench drr", [&] { return xp::RunBenchDRR(bench); });
 }

@@ -146,6 +146,11 @@ void AccuracyEvaluation::Run(
   }
 }
 
+const StereoRegistrationResult& AccuracyEvaluation::LastResult() const
+{
+  return this->Registration->GetResult();
+}
+
 TrialRecord AccuracyEvaluation::Register(
   int trial, const std::string& approach, const Pose& truth, const std::vector<RegistrationView>& views)
 {

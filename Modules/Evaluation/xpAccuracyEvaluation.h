@@ -70,6 +70,9 @@ public:
    */
   void Run(int trials, const std::vector<std::string>& approaches, EvaluationFolder& folder, const Progress& progress);
 
+  /** The registration whose record the last Progress call had (its stages, costs and masks). */
+  const StereoRegistrationResult& LastResult() const;
+
 private:
   TrialRecord Register(int trial, const std::string& approach, const Pose& truth, const std::vector<RegistrationView>& views);
 

@@ -48,11 +48,26 @@ double Trampoline(const std::vector<double>& x, std::vector<double>&, void* data
 namespace
 {
 
-/** One Nelder-Mead run from `x` (updated in place). */
+struct MethodName
+{
+  PoseOptimizerMethod method;
+  const char* name;
+  nlopt::algorithm algorithm;
+};
+
+const MethodName Methods[] = { { PoseOptimizerMethod::NelderMead, "nelder-mead", nlopt::LN_NELDERMEAD },
+  { PoseOptimizerMethod::Subplex, "sbplx", nlopt::LN_SBPLX }, { PoseOptimizerMethod::BOBYQA, "bobyqa", nlopt::LN_BOBYQA },
+  { PoseOptimizerMethod::COBYLA, "cobyla", nlopt::LN_COBYLA } };
+
+/** One run of the chosen optimiser from `x` (updated in place). */
 PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const Pose& start,
   const PoseOptimizerSettings& settings, int evaluationsLeft)
 {
-  nlopt::opt optimizer(nlopt::LN_NELDERMEAD, 6);
+  nlopt::algorithm algorithm = nlopt::LN_NELDERMEAD;
+  for (const MethodName& m : Methods)
+    if (m.method == settings.method)
+      algorithm = m.algorithm;
+  nlopt::opt optimizer(algorithm, 6);
   optimizer.set_max_objective(Trampoline, &context);
   const std::array<double, 6> origin = start.Parameters();
   std::vector<double> lower(6), upper(6), step(6), tolerance(6);
@@ -104,6 +119,33 @@ PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const P
 }
 
 } // namespace
+
+PoseOptimizerMethod ParsePoseOptimizerMethod(const std::string& name, const std::string& field)
+{
+  for (const MethodName& m : Methods)
+    if (name == m.name)
+      return m.method;
+  std::string known;
+  for (const MethodName& m : Methods)
+    known += std::string(known.empty() ? "" : ", ") + m.name;
+  throw InputError(field, "unknown optimiser '" + name + "' (one of " + known + ")");
+}
+
+const char* PoseOptimizerMethodName(PoseOptimizerMethod method)
+{
+  for (const MethodName& m : Methods)
+    if (m.method == method)
+      return m.name;
+  return "unknown";
+}
+
+std::vector<std::string> PoseOptimizerMethodNames()
+{
+  std::vector<std::string> names;
+  for (const MethodName& m : Methods)
+    names.push_back(m.name);
+  return names;
+}
 
 PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)

@@ -1,6 +1,7 @@
 /**
  * @file xpPoseOptimizer.h
- * @brief Maximises a pose objective with NLopt's downhill simplex (Nelder-Mead), in mm and degrees.
+ * @brief Maximises a pose objective with NLopt's downhill simplex (Nelder-Mead, the paper's) or
+ *        another of its derivative-free local optimisers, in mm and degrees.
  */
 #ifndef xpPoseOptimizer_h
 #define xpPoseOptimizer_h
@@ -10,12 +11,29 @@
 #include "xpPose.h"
 
 #include <functional>
+#include <string>
+#include <vector>
 
 namespace xp
 {
 
+/** NLopt's derivative-free local optimisers that MaximizePose can run. */
+enum class PoseOptimizerMethod
+{
+  NelderMead, ///< LN_NELDERMEAD: the paper's downhill simplex
+  Subplex,    ///< LN_SBPLX: Nelder-Mead on subspaces, robust in valleys
+  BOBYQA,     ///< LN_BOBYQA: quadratic models in a trust region, few evaluations on smooth peaks
+  COBYLA      ///< LN_COBYLA: linear models in a trust region
+};
+
+/** "nelder-mead", "sbplx", "bobyqa", "cobyla"; throws xp::InputError naming `field` otherwise. */
+VTKXPREGISTRATION_EXPORT PoseOptimizerMethod ParsePoseOptimizerMethod(const std::string& name, const std::string& field);
+VTKXPREGISTRATION_EXPORT const char* PoseOptimizerMethodName(PoseOptimizerMethod method);
+VTKXPREGISTRATION_EXPORT std::vector<std::string> PoseOptimizerMethodNames();
+
 struct PoseOptimizerSettings
 {
+  PoseOptimizerMethod method = PoseOptimizerMethod::NelderMead;
   double initialStepMM = 2.0;       ///< simplex size for translations
   double initialStepDegrees = 1.0;  ///< and for rotations
   double toleranceMM = 0.02;        ///< stop when a step changes every parameter less than this
@@ -41,7 +59,7 @@ struct PoseOptimizerResult
   std::string stopReason;
 };
 
-/** Maximises `objective` from `start` with a 6-parameter simplex. */
+/** Maximises `objective` from `start` over the 6 pose parameters with `settings.method`. */
 VTKXPREGISTRATION_EXPORT PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings = {});
 

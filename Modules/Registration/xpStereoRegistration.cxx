@@ -7,6 +7,7 @@
 #include "xpRayCaster.h"
 
 #include <algorithm>
+#include <ctime>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -61,12 +62,31 @@ std::vector<RegistrationView> AtCoarseSize(const std::vector<RegistrationView>& 
 }
 
 /** Starts a stage of the 6-DOF search; the previous one, if any, ends here. */
-void BeginStage(StereoRegistrationResult& result, const char* name, Clock::time_point& stageStart)
+/** When the running stage began, and what the similarities had cost by then. */
+struct StageStart
 {
-  const Clock::time_point now = Clock::now();
-  if (!result.stages.empty())
-    result.stages.back().seconds = std::chrono::duration<double>(now - stageStart).count();
-  stageStart = now;
+  const SimilarityCost& sink; ///< the registration's running total
+  Clock::time_point time{};
+  SimilarityCost cost;
+  std::clock_t cpu = 0; ///< the process's CPU time, all threads
+};
+
+/** Closes the running stage (its wall time and cost), if any. */
+void EndStage(StereoRegistrationResult& result, const StageStart& stageStart)
+{
+  if (result.stages.empty())
+    return;
+  result.stages.back().seconds = std::chrono::duration<double>(Clock::now() - stageStart.time).count();
+  result.stages.back().cost = stageStart.sink - stageStart.cost;
+  result.stages.back().cpuSeconds = static_cast<double>(std::clock() - stageStart.cpu) / CLOCKS_PER_SEC;
+}
+
+void BeginStage(StereoRegistrationResult& result, const char* name, StageStart& stageStart)
+{
+  EndStage(result, stageStart);
+  stageStart.time = Clock::now();
+  stageStart.cost = stageStart.sink;
+  stageStart.cpu = std::clock();
   result.stages.push_back({ name, static_cast<int>(result.objectiveTrace.size()) });
 }
 
@@ -281,6 +301,7 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
 PoseOptimizerSettings RefinementSettings(const StereoRegistrationSettings& settings)
 {
   PoseOptimizerSettings fine;
+  fine.method = settings.optimizer;
   fine.maxEvaluations = settings.maxEvaluations;
   // No restart here: the coarse search's restarts already escaped the valley's stalls, and on 14
   // pelvis trials a restart of the refinement cost a third of the time and changed the median
@@ -301,7 +322,7 @@ PoseOptimizerSettings RefinementSettings(const StereoRegistrationSettings& setti
  * valley's flat floor short of it. Returns the ends to refine, better first.
  */
 std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, const Pose& start, const StereoRegistrationSettings& settings,
-  bool halfResolution, StereoRegistrationResult& result, ProgressReporter& progress, Clock::time_point& stageStart)
+  bool halfResolution, StereoRegistrationResult& result, ProgressReporter& progress, StageStart& stageStart)
 {
   PoseOptimizerSettings searchSettings = RefinementSettings(settings);
   searchSettings.initialStepMM = 2.0;
@@ -599,6 +620,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   }
   const auto aboutIsocenter = [&](const Pose& pose) { return Pose::FromTransform(pose.ToTransform(isocenter), roomIsocenter); };
   ProgressReporter progress(observer);
+  SimilarityCost cost; // every similarity below adds its DRRs and times here
   const bool pyramid = settings.pyramid && inputViews[0].view.Columns() >= 256 && inputViews[0].view.Rows() >= 192;
   const double correlationMM = result.boneOnly ? settings.boneCorrelationHighPassMM : 0.0;
 
@@ -632,6 +654,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const std::vector<RegistrationView>& views = working.ranked;
   const std::vector<RegistrationView> coarseViews = AtCoarseSize(views, pyramid);
   StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins, { settings.equalizedLevels, 0.0 });
+  coarse.SetCostSink(&cost);
   // A bone's start is already near (a given pose, the previous frame's, or the global search's,
   // refined on both views at once): the 2D/2D steps, each view alone in a field of other bones,
   // turned the third metacarpal 25 degrees away from a good start.
@@ -644,6 +667,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     result.prealignment = PreAlign(coarse, settings.initialPose, isocenter);
   result.drrCount += coarse.RenderedDRRs();
   result.prealignSeconds = Since(start);
+  result.prealignCost = cost;
 
   // 2. Entropy masks AND ROIs AND the CT's coverage at the pre-alignment.
   start = Clock::now();
@@ -664,12 +688,13 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // 3. 6-DOF alignment with masked DRRs: the coarse search (half resolution), then each end it
   // leaves refined at full resolution.
   start = Clock::now();
-  Clock::time_point stageStart; // set by BeginStage
+  StageStart stageStart{ cost }; // set by BeginStage
   std::vector<Pose> searchEnds;
   {
     const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
     StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins,
       { settings.equalizedLevels, 0.0, correlationMM });
+    searchSimilarity.SetCostSink(&cost);
     searchEnds = SearchFromTwoStarts(searchSimilarity, result.prealignment.pose, settings, pyramid, result, progress, stageStart);
     result.drrCount += searchSimilarity.RenderedDRRs();
   }
@@ -694,6 +719,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     AndShadow(masked, volume, MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter), settings.boneShadowFineMarginMM);
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
     { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
+  fine.SetCostSink(&cost);
   const PoseOptimizerSettings fineSettings = RefinementSettings(settings);
   std::vector<PoseOptimizerResult> refined;
   for (size_t e = 0; e < searchEnds.size(); ++e)
@@ -710,7 +736,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     refined.push_back(MaximizePose(objective, searchEnds[e], fineSettings));
     result.evaluations += refined.back().evaluations;
   }
-  result.stages.back().seconds = Since(stageStart);
+  EndStage(result, stageStart);
   GateEvidence evidence;
   if (refined.size() == 2)
   {
@@ -767,6 +793,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       AndShadow(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM);
     StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
       { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
+    heldOut.SetCostSink(&cost);
     const auto objective = [&](const Pose& p)
     {
       const double value = Traced(result, fine.Evaluate(p));
@@ -777,7 +804,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     MeasureLandscape(objective, heldOut, fineResult.pose,
       fineResult.value, settings, result);
   }
-  result.stages.back().seconds = Since(stageStart);
+  EndStage(result, stageStart);
   result.objective = fine.Evaluate(fineResult.pose);
   result.drrCount += fine.RenderedDRRs();
   result.converged = fineResult.converged;

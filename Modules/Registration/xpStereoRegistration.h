@@ -10,6 +10,7 @@
 
 #include "xpCTCoverage.h"
 #include "xpEntropyMask.h"
+#include "xpPoseOptimizer.h"
 #include "xpPreAlignment.h"
 #include "xpQualityGate.h"
 #include "xpStereoSimilarity.h"
@@ -65,6 +66,7 @@ struct StereoRegistrationSettings
    *  0 = always leave them out. */
   double coverageMinExcess = 0.015;
   int maxEvaluations = 400;      ///< per 6-DOF stage
+  PoseOptimizerMethod optimizer = PoseOptimizerMethod::NelderMead; ///< of the 6-DOF stages
   double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
   double maxRotation = 10.0;     ///< gate: and degrees
   /** gate: each view must keep at least this many valid pixels per joint-histogram cell
@@ -119,6 +121,8 @@ struct RegistrationStage
   std::string name;
   int firstEvaluation = 0;
   double seconds = 0.0; ///< wall time of the stage
+  SimilarityCost cost;  ///< its DRRs, rays, rendering and metric time
+  double cpuSeconds = 0.0; ///< CPU time of the process's threads during the stage
 };
 
 struct StereoRegistrationResult
@@ -162,6 +166,7 @@ struct StereoRegistrationResult
     std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
+  SimilarityCost prealignCost; ///< the pre-alignment's
 };
 
 /** Where a running registration stands, for progress bars and logs. */

@@ -4,6 +4,7 @@
 #include "xpImageLevels.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 namespace xp
@@ -86,8 +87,11 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     const RegistrationView& item = this->Items[v];
     const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
     const long long count = static_cast<long long>(item.xray.size());
-    RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point start = Clock::now();
+    const long long rays = RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
       this->Traced[v], this->Integrals[v].data());
+    const Clock::time_point rendered = Clock::now();
     this->DRRCurrent[v] = false;
     if (this->Equalize)
       this->RankDRR(v);
@@ -98,6 +102,14 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     else
       objective += this->LastMI[v] * this->LastMI[v];
     ++this->DRRCount;
+    if (this->CostSink)
+    {
+      const Clock::time_point measured = Clock::now();
+      this->CostSink->drrs += 1;
+      this->CostSink->rays += rays;
+      this->CostSink->renderSeconds += std::chrono::duration<double>(rendered - start).count();
+      this->CostSink->metricSeconds += std::chrono::duration<double>(measured - rendered).count();
+    }
   }
   return objective;
 }

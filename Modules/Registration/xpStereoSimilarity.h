@@ -47,6 +47,21 @@ struct SimilarityLevels
   double correlationHighPassMM = 0.0;
 };
 
+/** Where similarities' time goes: rendering the DRRs, and the metric (levels, high-pass,
+ *  histogram, correlation). Several similarities may add into one (SetCostSink). */
+struct SimilarityCost
+{
+  long long drrs = 0;  ///< DRRs rendered (one per view per evaluation)
+  long long rays = 0;  ///< rays cast (masked pixels cast none)
+  double renderSeconds = 0.0;
+  double metricSeconds = 0.0;
+
+  SimilarityCost operator-(const SimilarityCost& earlier) const
+  {
+    return { drrs - earlier.drrs, rays - earlier.rays, renderSeconds - earlier.renderSeconds, metricSeconds - earlier.metricSeconds };
+  }
+};
+
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
 {
 public:
@@ -72,6 +87,8 @@ public:
   const std::vector<uint16_t>& XRayLevels(size_t v) const { return this->Equalize ? this->XRayRanks[v] : this->Items[v].xray; }
   const std::vector<uint16_t>& LastDRRLevels(size_t v) const { return this->Equalize ? this->DRRRanks[v] : this->LastDRR(v); }
   long long RenderedDRRs() const { return this->DRRCount; }
+  /** Every later evaluation also adds its cost to `sink` (null: none); it must outlive this. */
+  void SetCostSink(SimilarityCost* sink) { this->CostSink = sink; }
   const std::vector<RegistrationView>& Views() const { return this->Items; }
 
 private:
@@ -105,6 +122,7 @@ private:
 
   std::vector<double> LastMI;
   long long DRRCount = 0;
+  SimilarityCost* CostSink = nullptr;
 };
 
 } // namespace xp

@@ -385,6 +385,70 @@ int AccurateCases(const Scene& scene, int cases, double mm, double degrees, unsi
 
 } // namespace
 
+// Every optimiser on offer finds a smooth peak (each axis scaled differently), and a wrong name
+// is refused with the field named.
+TEST(PoseOptimizer, EveryMethodFindsASmoothPeak)
+{
+  const std::array<double, 6> peak{ 3.0, -2.0, 1.0, 1.0, 0.5, -1.0 };
+  const auto objective = [&](const xp::Pose& p)
+  {
+    const std::array<double, 6> x = p.Parameters();
+    double value = 0.0;
+    for (int i = 0; i < 6; ++i)
+      value -= (1.0 + i) * (x[i] - peak[i]) * (x[i] - peak[i]);
+    return value;
+  };
+  for (const std::string& name : xp::PoseOptimizerMethodNames())
+  {
+    xp::PoseOptimizerSettings settings;
+    settings.method = xp::ParsePoseOptimizerMethod(name, "test");
+    EXPECT_STREQ(xp::PoseOptimizerMethodName(settings.method), name.c_str());
+    settings.maxEvaluations = 3000;
+    const xp::PoseOptimizerResult result = xp::MaximizePose(objective, xp::Pose{}, settings);
+    const std::array<double, 6> x = result.pose.Parameters();
+    for (int i = 0; i < 6; ++i)
+      EXPECT_NEAR(x[i], peak[i], 0.05) << name << " parameter " << i;
+    std::printf("%s: %d evaluations\n", name.c_str(), result.evaluations);
+  }
+  try
+  {
+    xp::ParsePoseOptimizerMethod("simplex", "--optimizers");
+    FAIL() << "an unknown optimiser was accepted";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("--optimizers"), std::string::npos) << e.what();
+  }
+}
+
+// Each 6-DOF stage's cost is its own: a coarse search renders two DRRs (one per view) for each
+// evaluation it traces and nothing else; the stages and the pre-alignment never count more DRRs
+// than the registration rendered.
+TEST(StereoRegistration, CostsAreAccountedPerStage)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), SimulateKV(scene, truth, 5, 256, 192));
+  ASSERT_GE(result.stages.size(), 3u);
+  EXPECT_GT(result.prealignCost.drrs, 0);
+  long long staged = result.prealignCost.drrs;
+  for (size_t s = 0; s < result.stages.size(); ++s)
+  {
+    const xp::RegistrationStage& stage = result.stages[s];
+    const int next = s + 1 < result.stages.size() ? result.stages[s + 1].firstEvaluation : static_cast<int>(result.objectiveTrace.size());
+    if (stage.name.find("coarse search") != std::string::npos)
+      EXPECT_EQ(stage.cost.drrs, 2 * (next - stage.firstEvaluation)) << stage.name;
+    EXPECT_GT(stage.cost.rays, 0) << stage.name;
+    EXPECT_GT(stage.cost.renderSeconds, 0.0) << stage.name;
+    EXPECT_GE(stage.cost.metricSeconds, 0.0) << stage.name;
+    EXPECT_GT(stage.cpuSeconds, 0.0) << stage.name;
+    EXPECT_LE(stage.cost.renderSeconds + stage.cost.metricSeconds, stage.seconds + 1e-3) << stage.name;
+    staged += stage.cost.drrs;
+  }
+  EXPECT_LE(staged, result.drrCount);
+}
+
 TEST(StereoRegistrationAcceptance, UpTo10mmAnd3DegreesAllCasesAccurate)
 {
   Scene scene;

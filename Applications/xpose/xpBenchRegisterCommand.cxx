@@ -1,0 +1,229 @@
+// `xpose bench register`: where a registration's time goes, stage by stage, and what each
+// optimiser of the 6-DOF stages costs and gives on the same simulated trials.
+#include "xpCommands.h"
+#include "xpRegistrationInputs.h"
+
+#include "xpAccuracyEvaluation.h"
+#include "xpError.h"
+#include "xpEvaluation.h"
+#include "xpEvaluationFolder.h"
+#include "xpEvaluationScenario.h"
+#include "xpStereoGeometry.h"
+#include "xpVolumeIO.h"
+
+#include <vtkImageData.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <thread>
+#include <unistd.h>
+
+namespace xp
+{
+
+namespace
+{
+
+using Clock = std::chrono::steady_clock;
+
+double Median(std::vector<double> values)
+{
+  if (values.empty())
+    return 0.0;
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+/** The nearest-rank 95th percentile. */
+double Percentile95(std::vector<double> values)
+{
+  if (values.empty())
+    return 0.0;
+  std::sort(values.begin(), values.end());
+  const size_t rank = static_cast<size_t>(std::ceil(0.95 * values.size()));
+  return values[std::max<size_t>(rank, 1) - 1];
+}
+
+/** One stage's figures in one trial. */
+struct StageFigures
+{
+  double evaluations = 0, drrs = 0, megaRays = 0, renderSeconds = 0, metricSeconds = 0, wallSeconds = 0, cpuSeconds = 0;
+};
+
+/** What one optimiser's trials measured. */
+struct VariantFigures
+{
+  std::string optimizer;
+  std::vector<std::string> stageOrder;
+  std::map<std::string, std::vector<StageFigures>> stages;
+  std::vector<double> seconds, evaluations, mtre, megaRays, renderShare;
+  int ok = 0, success = 0, trials = 0;
+};
+
+StageFigures FiguresOf(const RegistrationStage& stage, int nextEvaluation)
+{
+  StageFigures f;
+  f.evaluations = nextEvaluation - stage.firstEvaluation;
+  f.drrs = static_cast<double>(stage.cost.drrs);
+  f.megaRays = stage.cost.rays / 1e6;
+  f.renderSeconds = stage.cost.renderSeconds;
+  f.metricSeconds = stage.cost.metricSeconds;
+  f.wallSeconds = stage.seconds;
+  f.cpuSeconds = stage.cpuSeconds;
+  return f;
+}
+
+void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegistrationResult& result)
+{
+  ++variant.trials;
+  variant.ok += record.status == "ok";
+  variant.success += record.success;
+  variant.seconds.push_back(record.totalSeconds);
+  variant.evaluations.push_back(result.evaluations);
+  variant.mtre.push_back(record.mtre);
+  const auto add = [&](const std::string& name, const StageFigures& f)
+  {
+    if (!variant.stages.count(name))
+      variant.stageOrder.push_back(name);
+    variant.stages[name].push_back(f);
+  };
+  StageFigures prealign;
+  prealign.drrs = static_cast<double>(result.prealignCost.drrs);
+  prealign.megaRays = result.prealignCost.rays / 1e6;
+  prealign.renderSeconds = result.prealignCost.renderSeconds;
+  prealign.metricSeconds = result.prealignCost.metricSeconds;
+  prealign.wallSeconds = result.prealignSeconds;
+  prealign.cpuSeconds = -1.0; // not measured outside the 6-DOF stages
+  add("pre-alignment", prealign);
+  StageFigures masks;
+  masks.wallSeconds = result.maskSeconds;
+  masks.cpuSeconds = -1.0;
+  add("masks", masks);
+  double rays = prealign.megaRays, render = prealign.renderSeconds;
+  for (size_t s = 0; s < result.stages.size(); ++s)
+  {
+    const int next = s + 1 < result.stages.size() ? result.stages[s + 1].firstEvaluation : static_cast<int>(result.objectiveTrace.size());
+    const StageFigures f = FiguresOf(result.stages[s], next);
+    rays += f.megaRays;
+    render += f.renderSeconds;
+    add(result.stages[s].name, f);
+  }
+  // What no stage holds: the X-rays' polarity probe and the gate's own per-view checks.
+  double staged = prealign.wallSeconds + masks.wallSeconds;
+  for (const RegistrationStage& stage : result.stages)
+    staged += stage.seconds;
+  StageFigures other;
+  other.wallSeconds = std::max(0.0, record.totalSeconds - staged);
+  other.cpuSeconds = -1.0;
+  add("other (polarity probe, gate's view checks)", other);
+  variant.megaRays.push_back(rays);
+  variant.renderShare.push_back(record.totalSeconds > 0.0 ? render / record.totalSeconds : 0.0);
+}
+
+void PrintStages(const VariantFigures& variant, int cores)
+{
+  std::printf("\n%s: medians over the trials that ran each stage\n", variant.optimizer.c_str());
+  std::printf("| stage | trials | evaluations | DRRs | rays (M) | DRR time (s) | metric time (s) | wall (s) | cores busy |\n"
+              "|---|---|---|---|---|---|---|---|---|\n");
+  for (const std::string& name : variant.stageOrder)
+  {
+    const std::vector<StageFigures>& all = variant.stages.at(name);
+    std::vector<double> e, d, r, render, metric, wall, busy;
+    for (const StageFigures& f : all)
+    {
+      e.push_back(f.evaluations), d.push_back(f.drrs), r.push_back(f.megaRays), render.push_back(f.renderSeconds);
+      metric.push_back(f.metricSeconds), wall.push_back(f.wallSeconds);
+      if (f.cpuSeconds >= 0.0 && f.wallSeconds > 0.0)
+        busy.push_back(f.cpuSeconds / (f.wallSeconds * cores));
+    }
+    char busyText[32] = "-";
+    if (!busy.empty())
+      std::snprintf(busyText, sizeof busyText, "%.0f %%", 100.0 * Median(busy));
+    std::printf("| %s | %zu | %.0f | %.0f | %.2f | %.3f | %.3f | %.3f | %s |\n", name.c_str(), all.size(), Median(e), Median(d),
+      Median(r), Median(render), Median(metric), Median(wall), busyText);
+  }
+}
+
+} // namespace
+
+int RunBenchRegister(const BenchRegisterOptions& options)
+{
+  if (options.trials < 1)
+    throw InputError("--trials", "must be at least 1");
+  if (options.optimizers.empty())
+    throw InputError("--optimizers", "name at least one optimiser");
+  UseThreads(options.threads);
+  std::optional<DetectorSettings> detector;
+  if (!options.detector.empty())
+    detector = DetectorSettings{ ParseDetectorFormat(options.detector, "--detector"), 20000.0, 0.001 };
+  const EvaluationScenario scenario(options.scenario, {}, 30.0, true, detector);
+
+  const Clock::time_point readStart = Clock::now();
+  const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
+  ValidateStereoGeometry(geometry, options.geometry);
+  const CTVolume ct = ReadCTVolume(options.ct, options.series);
+  const double readSeconds = std::chrono::duration<double>(Clock::now() - readStart).count();
+  const PatientSetup patient{ ParsePatientPosition(ct.patientPosition, options.ct), std::nullopt, geometry.isocenter };
+  AccuracyEvaluationSettings settings;
+  settings.seed = options.seed;
+  settings.range = { options.minTranslation, options.maxTranslation, options.maxRotation };
+  settings.successMTRE = 1.0;
+  settings.shrinkFactor = RegistrationShrinkFactor(geometry.views, options.size);
+  settings.registration.entropyMask = true;
+  const int cores = options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int dims[3];
+  ct.image->GetDimensions(dims);
+  std::printf("xpose bench register\nCT: %s, %d x %d x %d voxels, read in %.2f s (with the geometry; not in the times "
+              "below)\nX-rays: scenario %s%s%s, %d trials (seed %u, %.0f-%.0f mm, %.0f degrees), registered at %s with "
+              "entropy masks (approach B); %d threads\n",
+    options.ct.c_str(), dims[0], dims[1], dims[2], readSeconds, options.scenario.c_str(), detector ? ", detector " : "",
+    options.detector.c_str(), options.trials, options.seed, options.minTranslation, options.maxTranslation, options.maxRotation,
+    options.size.c_str(), cores);
+
+  std::vector<VariantFigures> variants;
+  const std::filesystem::path scratch =
+    std::filesystem::temp_directory_path() / ("xpose-bench-register-" + std::to_string(::getpid()));
+  for (const std::string& name : options.optimizers)
+  {
+    settings.registration.optimizer = ParsePoseOptimizerMethod(name, "--optimizers");
+    AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
+    // The folder only carries the records: a fresh one per optimiser, removed afterwards.
+    const std::filesystem::path directory = scratch / name;
+    std::filesystem::remove_all(directory);
+    std::filesystem::create_directories(scratch);
+    VariantFigures variant;
+    variant.optimizer = name;
+    {
+      EvaluationFolder folder(directory.string(), "{\"bench\": \"register\", \"optimizer\": \"" + name + "\"}");
+      evaluation.Run(options.trials, { "B" }, folder, [&](const TrialRecord& record, int, int)
+        {
+          Record(variant, record, evaluation.LastResult());
+          std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s\n", name.c_str(), record.trial, record.status.c_str(),
+            record.mtre, record.totalSeconds);
+        });
+    }
+    std::filesystem::remove_all(directory);
+    PrintStages(variant, cores);
+    variants.push_back(std::move(variant));
+  }
+  std::filesystem::remove_all(scratch);
+
+  std::printf("\nOptimisers side by side (the same trials and X-rays; time = the registration, CT read excluded)\n");
+  std::printf("| optimiser | ok | within 1 mm and ok | median mTRE (mm) | median evaluations | median rays (M) | DRR share of "
+              "the time | median time (s) | p95 time (s) | time / %s |\n|---|---|---|---|---|---|---|---|---|---|\n",
+    variants.front().optimizer.c_str());
+  const double reference = Median(variants.front().seconds);
+  for (const VariantFigures& v : variants)
+    std::printf("| %s | %d/%d | %d/%d | %.3f | %.0f | %.1f | %.0f %% | %.2f | %.2f | %.2f |\n", v.optimizer.c_str(), v.ok, v.trials,
+      v.success, v.trials, Median(v.mtre), Median(v.evaluations), Median(v.megaRays), 100.0 * Median(v.renderShare),
+      Median(v.seconds), Percentile95(v.seconds), reference > 0.0 ? Median(v.seconds) / reference : 0.0);
+  return ExitOk;
+}
+
+} // namespace xp
