@@ -158,6 +158,13 @@ int RunBenchRegister(const BenchRegisterOptions& options)
     throw InputError("--trials", "must be at least 1");
   if (options.optimizers.empty())
     throw InputError("--optimizers", "name at least one optimiser");
+  for (const std::string& name : options.optimizers) // every name checked before hours of work
+  {
+    const size_t slash = name.find('/');
+    ParsePoseOptimizerMethod(name.substr(0, slash), "--optimizers");
+    if (slash != std::string::npos)
+      ParsePoseOptimizerMethod(name.substr(slash + 1), "--optimizers");
+  }
   UseThreads(options.threads);
   std::optional<DetectorSettings> detector;
   if (!options.detector.empty())
@@ -191,10 +198,16 @@ int RunBenchRegister(const BenchRegisterOptions& options)
     std::filesystem::temp_directory_path() / ("xpose-bench-register-" + std::to_string(::getpid()));
   for (const std::string& name : options.optimizers)
   {
-    settings.registration.optimizer = ParsePoseOptimizerMethod(name, "--optimizers");
+    // "search/refinement", or one name for both.
+    const size_t slash = name.find('/');
+    settings.registration.optimizer = ParsePoseOptimizerMethod(name.substr(0, slash), "--optimizers");
+    settings.registration.refinementOptimizer =
+      ParsePoseOptimizerMethod(slash == std::string::npos ? name : name.substr(slash + 1), "--optimizers");
     AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
     // The folder only carries the records: a fresh one per optimiser, removed afterwards.
-    const std::filesystem::path directory = scratch / name;
+    std::string folderName = name;
+    std::replace(folderName.begin(), folderName.end(), '/', '+');
+    const std::filesystem::path directory = scratch / folderName;
     std::filesystem::remove_all(directory);
     std::filesystem::create_directories(scratch);
     VariantFigures variant;
@@ -204,8 +217,8 @@ int RunBenchRegister(const BenchRegisterOptions& options)
       evaluation.Run(options.trials, { "B" }, folder, [&](const TrialRecord& record, int, int)
         {
           Record(variant, record, evaluation.LastResult());
-          std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s\n", name.c_str(), record.trial, record.status.c_str(),
-            record.mtre, record.totalSeconds);
+          std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s%s%s\n", name.c_str(), record.trial, record.status.c_str(),
+            record.mtre, record.totalSeconds, record.reasons.empty() ? "" : ": ", record.reasons.c_str());
         });
     }
     std::filesystem::remove_all(directory);

@@ -77,7 +77,8 @@ struct BenchRegisterOptions
   std::string detector;             ///< empty: the scenario's own X-rays
   int trials = 5;
   std::string size = "512x384";
-  std::vector<std::string> optimizers{ "nelder-mead", "sbplx", "bobyqa" };
+  /** One name for every 6-DOF stage, or SEARCH/REFINEMENT. */
+  std::vector<std::string> optimizers{ "nelder-mead", "cobyla", "nelder-mead/cobyla" };
   unsigned seed = 11;
   double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
   int threads = 0;

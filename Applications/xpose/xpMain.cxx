@@ -133,8 +133,11 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
   benchRegister->add_option("--detector", reg.detector, "Image format of the clinical and plastimatch scenarios (as evaluate)");
   benchRegister->add_option("--trials", reg.trials, "Misalignments per optimiser (the same for each)")->capture_default_str();
   benchRegister->add_option("--size", reg.size, "Registration resolution COLSxROWS")->capture_default_str();
-  benchRegister->add_option("--optimizers", reg.optimizers, "6-DOF optimisers compared")
-    ->check(CLI::IsMember(xp::PoseOptimizerMethodNames()))
+  std::string optimizerNames;
+  for (const std::string& name : xp::PoseOptimizerMethodNames())
+    optimizerNames += (optimizerNames.empty() ? "" : ", ") + name;
+  benchRegister->add_option("--optimizers", reg.optimizers,
+      "6-DOF optimisers compared: one of " + optimizerNames + " for every stage, or SEARCH/REFINEMENT (nelder-mead/cobyla)")
     ->capture_default_str();
   benchRegister->add_option("--seed", reg.seed, "Seed of the trials and the noise")->capture_default_str();
   benchRegister->add_option("--min-translation", reg.minTranslation, "Smallest initial translation error, mm")->capture_default_str();

@@ -91,7 +91,8 @@ PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const P
     double value = 0.0;
     const nlopt::result code = optimizer.optimize(x, value);
     result.value = value;
-    result.converged = code == nlopt::XTOL_REACHED || code == nlopt::FTOL_REACHED;
+    // BOBYQA ends its trust region's shrinking with the generic SUCCESS, not XTOL_REACHED.
+    result.converged = code == nlopt::XTOL_REACHED || code == nlopt::FTOL_REACHED || code == nlopt::SUCCESS;
     result.stopReason = code == nlopt::MAXEVAL_REACHED ? "evaluation limit reached"
       : result.converged                             ? "tolerance reached"
                                                      : "stopped (NLopt code " + std::to_string(code) + ")";

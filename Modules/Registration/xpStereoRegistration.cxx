@@ -301,7 +301,7 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
 PoseOptimizerSettings RefinementSettings(const StereoRegistrationSettings& settings)
 {
   PoseOptimizerSettings fine;
-  fine.method = settings.optimizer;
+  fine.method = settings.refinementOptimizer;
   fine.maxEvaluations = settings.maxEvaluations;
   // No restart here: the coarse search's restarts already escaped the valley's stalls, and on 14
   // pelvis trials a restart of the refinement cost a third of the time and changed the median
@@ -325,6 +325,7 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, const Pose& 
   bool halfResolution, StereoRegistrationResult& result, ProgressReporter& progress, StageStart& stageStart)
 {
   PoseOptimizerSettings searchSettings = RefinementSettings(settings);
+  searchSettings.method = settings.optimizer;
   searchSettings.initialStepMM = 2.0;
   searchSettings.initialStepDegrees = 1.0;
   searchSettings.toleranceMM = 0.1;

@@ -66,7 +66,9 @@ struct StereoRegistrationSettings
    *  0 = always leave them out. */
   double coverageMinExcess = 0.015;
   int maxEvaluations = 400;      ///< per 6-DOF stage
-  PoseOptimizerMethod optimizer = PoseOptimizerMethod::NelderMead; ///< of the 6-DOF stages
+  /** The optimiser of the coarse searches, and of the refinements and restarts (xpPoseOptimizer.h). */
+  PoseOptimizerMethod optimizer = PoseOptimizerMethod::NelderMead;
+  PoseOptimizerMethod refinementOptimizer = PoseOptimizerMethod::NelderMead;
   double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
   double maxRotation = 10.0;     ///< gate: and degrees
   /** gate: each view must keep at least this many valid pixels per joint-histogram cell

@@ -405,6 +405,7 @@ TEST(PoseOptimizer, EveryMethodFindsASmoothPeak)
     EXPECT_STREQ(xp::PoseOptimizerMethodName(settings.method), name.c_str());
     settings.maxEvaluations = 3000;
     const xp::PoseOptimizerResult result = xp::MaximizePose(objective, xp::Pose{}, settings);
+    EXPECT_TRUE(result.converged) << name << ": " << result.stopReason; // BOBYQA ends with NLopt's plain SUCCESS
     const std::array<double, 6> x = result.pose.Parameters();
     for (int i = 0; i < 6; ++i)
       EXPECT_NEAR(x[i], peak[i], 0.05) << name << " parameter " << i;
