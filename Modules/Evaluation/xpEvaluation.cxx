@@ -119,7 +119,7 @@ std::string TrialCSVHeader()
     header += std::string(",error_") + axis;
   return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
                   "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
-                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,reasons";
+                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,halves_scale,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -140,7 +140,7 @@ std::string TrialCSVRow(const TrialRecord& r)
       << r.residualMM << ',' << r.uncovered << ',' << r.searchApartMM << ',' << r.searchApartDegrees << ','
       << r.validPixels << ',' << r.endFaceExcessMin << ',' << r.endFaceExcessMax << ',' << r.endFacesLeftOut << ','
       << r.peakMargin << ',' << r.uncertaintyMM << ',' << r.uncertaintyDegrees << ',' << r.halvesApartMM << ','
-      << reasons;
+      << r.halvesScale << ',' << reasons;
   return row.str();
 }
 
@@ -203,7 +203,7 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       r.endFaceExcessMin = std::stod(f[i++]);
       r.endFaceExcessMax = std::stod(f[i++]);
       r.endFacesLeftOut = std::stoi(f[i++]);
-      for (double* v : { &r.peakMargin, &r.uncertaintyMM, &r.uncertaintyDegrees, &r.halvesApartMM })
+      for (double* v : { &r.peakMargin, &r.uncertaintyMM, &r.uncertaintyDegrees, &r.halvesApartMM, &r.halvesScale })
         *v = std::stod(f[i++]);
       r.reasons = f[i++];
       records.push_back(r);

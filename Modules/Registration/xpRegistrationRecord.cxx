@@ -195,6 +195,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.uncertainty = result.uncertainty;
   record.xrayCorrelation = result.xrayCorrelation;
   record.halvesApartMM = result.halvesApartMM;
+  record.halvesScale = result.halvesScale;
   record.peakMargin = result.peakMargin;
   record.stages = result.stages;
   record.objectiveTrace = result.objectiveTrace;
@@ -248,6 +249,7 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     root["uncertainty"][axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
   root["peak_margin"] = r.peakMargin;
   root["halves_apart_mm"] = PerView(r.viewNames, r.halvesApartMM);
+  root["halves_scale"] = PerView(r.viewNames, r.halvesScale);
   // How each X-ray's grey levels were read: bright = transmission (raw) or attenuation (log),
   // from the sign of its correlation with the DRR at the start pose.
   for (size_t v = 0; v < r.viewNames.size() && v < r.xrayCorrelation.size(); ++v)

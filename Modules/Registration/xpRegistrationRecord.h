@@ -60,6 +60,7 @@ struct RegistrationRecord
    *  attenuation, as log images); written, not read back. */
   std::vector<double> xrayCorrelation;
   std::vector<double> halvesApartMM; ///< per view; written, not read back
+  std::vector<double> halvesScale;   ///< per view; written, not read back
   double peakMargin = 0.0;
   std::vector<RegistrationStage> stages;
   std::vector<double> objectiveTrace;
