@@ -71,6 +71,7 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
          std::make_pair(settings.maxUncovered, "maxUncovered"), std::make_pair(settings.maxUncertaintyMM, "maxUncertaintyMM"),
          std::make_pair(settings.maxUncertaintyDegrees, "maxUncertaintyDegrees"),
          std::make_pair(settings.maxHalvesApartMM, "maxHalvesApartMM"), std::make_pair(settings.maxHalvesScale, "maxHalvesScale"),
+         std::make_pair(settings.halvesSearchStepMM, "halvesSearchStepMM"),
          std::make_pair(settings.maxRestartsApartMM, "maxRestartsApartMM"),
          std::make_pair(settings.maxRestartsApartDegrees, "maxRestartsApartDegrees"),
          std::make_pair(settings.landscapeNearMM, "landscapeNearMM"), std::make_pair(settings.landscapeNearDegrees, "landscapeNearDegrees"),

@@ -432,7 +432,8 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
   // their median row) registered on its own: a rigid fit of the right anatomy leaves both where
   // the whole is, while an anatomy that no rigid pose fits (another person, or one 10 % longer)
   // pulls the halves apart, each towards its own part. The medians, not the view's centre: a
-  // bone's shadow may lie anywhere in a large field.
+  // bone's shadow may lie anywhere in a large field. Their searches start with wider steps than
+  // the residual's (halvesSearchStepMM): each half's own optimum may lie millimetres away.
   const int columns = item.view.Columns(), rows = item.view.Rows();
   std::vector<int> validColumns, validRows;
   for (int r = 0; r < rows; ++r)
@@ -463,7 +464,7 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
         }
       centroids[side] = count > 0.0 ? Eigen::Vector2d(sum / count) : Eigen::Vector2d::Zero();
       shifts[side] = Register2D(fine.XRayLevels(v), fine.LastDRRLevels(v), columns, rows, item.view.Project(isocenter),
-        half.data(), settings.bins, 0.5 * settings.maxViewResidual / mmPerPixel).shift;
+        half.data(), settings.bins, settings.halvesSearchStepMM / mmPerPixel).shift;
     }
     evidence.halvesApartMM = std::max(evidence.halvesApartMM, (shifts[0] - shifts[1]).norm() * mmPerPixel);
     // Along the axis across the split: a stretch moves each half with its own centroid.
