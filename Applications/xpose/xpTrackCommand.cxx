@@ -3,6 +3,7 @@
 #include "xpError.h"
 #include "xpImageIO.h"
 #include "xpRegistrationRecord.h"
+#include "xpVolumeIO.h"
 
 #include <json/json.h>
 
@@ -67,14 +68,25 @@ int RunTrack(const TrackOptions& options)
          "uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s\n";
   Json::Value poses(Json::arrayValue);
   std::string start = options.registration.initialPose;
-  bool allOk = true;
+  bool allOk = true, previousOk = true;
+  // A volume the global search can search (a bone in TIFF, or --global-search): a frame after a
+  // failed one is searched from nothing. Between the wrist set's frames 2 and 158 the hand turns
+  // by tens of degrees; a failed frame's end is no start for the next.
+  const bool searchable = options.registration.globalSearch || IsTIFFVolumePath(options.registration.ct);
   for (size_t f = 0; f < frames.size(); ++f)
   {
     std::printf("frame %zu of %zu\n", f + 1, frames.size());
     RegisterOptions frame = options.registration;
     frame.xrays = frames[f];
     frame.initialPose = start;
-    frame.globalSearch = f == 0 && options.registration.globalSearch;
+    const bool searchAgain = f > 0 && !previousOk && searchable;
+    if (searchAgain)
+      frame.initialPose.clear(); // a given start would win over the search
+    frame.globalSearch = (f == 0 && options.registration.globalSearch) || searchAgain;
+    const bool searched = frame.initialPose.empty() && (frame.globalSearch || IsTIFFVolumePath(frame.ct));
+    const char* startedFrom = searched ? "global search" : frame.initialPose.empty() ? "planned set-up"
+      : f == 0                                                                   ? "given"
+                                                                                 : "previous frame";
     frame.outputDirectory = output.Path(FrameName(f));
     if (!options.reportDirectory.empty())
       frame.reportDirectory = options.reportDirectory + "/" + FrameName(f);
@@ -83,6 +95,7 @@ int RunTrack(const TrackOptions& options)
       return code;
     const RegistrationRecord record = ReadRegistrationRecord(frame.outputDirectory + "/result.json");
     allOk = allOk && record.ok;
+    previousOk = record.ok;
     // The next frame starts where this one ended: a motion between frames is small, and a failed
     // frame's end is still the best guess of where the bone is.
     const std::array<double, 6> p = record.misalignment.Parameters();
@@ -105,6 +118,7 @@ int RunTrack(const TrackOptions& options)
     for (const std::string& file : frames[f])
       item["xrays"].append(file);
     item["status"] = record.ok ? "ok" : "failed";
+    item["start"] = startedFrom;
     for (size_t k = 0; k < 6; ++k)
     {
       static const char* names[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };

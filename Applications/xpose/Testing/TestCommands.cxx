@@ -465,6 +465,9 @@ TEST(Commands, TrackRegistersFrameAfterFrame)
   const xp::RegistrationRecord first = xp::ReadRegistrationRecord("cmd-track/frame-0001/result.json");
   const xp::RegistrationRecord second = xp::ReadRegistrationRecord("cmd-track/frame-0002/result.json");
   EXPECT_LT((second.initialPose.translation - first.misalignment.translation).norm(), 1e-6);
+  const std::string json = ReadText("cmd-track/poses.json");
+  EXPECT_NE(json.find("\"start\" : \"planned set-up\""), std::string::npos) << json;
+  EXPECT_NE(json.find("\"start\" : \"previous frame\""), std::string::npos) << json;
 
   options.frames = { "cmd-track-1/xray_A.png", "cmd-track-2/xray_A.png,cmd-track-2/xray_B.png" };
   options.outputDirectory = "cmd-track-bad";
