@@ -496,17 +496,7 @@ struct WorkingXRays
 /** Pearson correlation of an X-ray's levels with its DRR over the valid pixels (empty mask: all). */
 double CorrelationWithDRR(const std::vector<uint16_t>& xray, const std::vector<uint16_t>& drr, const std::vector<uint8_t>& mask)
 {
-  double n = 0, sx = 0, sy = 0, sxy = 0, sxx = 0, syy = 0;
-  for (size_t i = 0; i < xray.size(); ++i)
-  {
-    if (!mask.empty() && !mask[i])
-      continue;
-    const double x = xray[i], y = drr[i];
-    n += 1, sx += x, sy += y, sxy += x * y, sxx += x * x, syy += y * y;
-  }
-  n = std::max(n, 1.0);
-  const double spread = std::sqrt(std::max(0.0, (sxx - sx * sx / n) * (syy - sy * sy / n)));
-  return spread > 0.0 ? (sxy - sx * sy / n) / spread : 0.0;
+  return PearsonCorrelation(xray.data(), drr.data(), mask.empty() ? nullptr : mask.data(), xray.size());
 }
 
 /**

@@ -125,17 +125,7 @@ double StereoSimilarity::CorrelateDRR(size_t v)
   for (size_t i = 0; i < integral.size(); ++i)
     structure[i] = -integral[i];
   SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), this->CorrelationMM / item.view.pixelSpacing[0]);
-  const std::vector<float>& xray = this->XRayStructure[v];
-  double n = 0, sx = 0, sy = 0, sxy = 0, sxx = 0, syy = 0;
-  for (size_t i = 0; i < structure.size(); ++i)
-  {
-    if (mask && !mask[i])
-      continue;
-    const double x = xray[i], y = structure[i];
-    n += 1, sx += x, sy += y, sxy += x * y, sxx += x * x, syy += y * y;
-  }
-  const double spread = n > 0 ? std::sqrt(std::max(0.0, (sxx - sx * sx / n) * (syy - sy * sy / n))) : 0.0;
-  return spread > 0.0 ? (sxy - sx * sy / n) / spread : 0.0;
+  return PearsonCorrelation(this->XRayStructure[v].data(), structure.data(), mask, structure.size());
 }
 
 void StereoSimilarity::RankDRR(size_t v)
