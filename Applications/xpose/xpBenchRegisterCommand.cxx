@@ -160,10 +160,8 @@ int RunBenchRegister(const BenchRegisterOptions& options)
     throw InputError("--optimizers", "name at least one optimiser");
   for (const std::string& name : options.optimizers) // every name checked before hours of work
   {
-    const size_t slash = name.find('/');
-    ParsePoseOptimizerMethod(name.substr(0, slash), "--optimizers");
-    if (slash != std::string::npos)
-      ParsePoseOptimizerMethod(name.substr(slash + 1), "--optimizers");
+    StereoRegistrationSettings check;
+    SetOptimizers(name, check, "--optimizers");
   }
   UseThreads(options.threads);
   std::optional<DetectorSettings> detector;
@@ -198,11 +196,7 @@ int RunBenchRegister(const BenchRegisterOptions& options)
     std::filesystem::temp_directory_path() / ("xpose-bench-register-" + std::to_string(::getpid()));
   for (const std::string& name : options.optimizers)
   {
-    // "search/refinement", or one name for both.
-    const size_t slash = name.find('/');
-    settings.registration.optimizer = ParsePoseOptimizerMethod(name.substr(0, slash), "--optimizers");
-    settings.registration.refinementOptimizer =
-      ParsePoseOptimizerMethod(slash == std::string::npos ? name : name.substr(slash + 1), "--optimizers");
+    SetOptimizers(name, settings.registration, "--optimizers");
     AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
     // The folder only carries the records: a fresh one per optimiser, removed afterwards.
     std::string folderName = name;

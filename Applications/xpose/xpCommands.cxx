@@ -84,6 +84,13 @@ void CheckLimit(double value, double low, double high, const std::string& option
   }
 }
 
+void SetOptimizers(const std::string& text, StereoRegistrationSettings& settings, const std::string& option)
+{
+  const size_t slash = text.find('/');
+  settings.optimizer = ParsePoseOptimizerMethod(text.substr(0, slash), option);
+  settings.refinementOptimizer = ParsePoseOptimizerMethod(slash == std::string::npos ? text : text.substr(slash + 1), option);
+}
+
 void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
 {
   CheckLimit(settings.bins, 8, 256, "--bins");

@@ -122,6 +122,7 @@ struct RegisterOptions
   std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
   std::string isocenterInCT;
   std::string initialPose;          ///< "tx,ty,tz,pitch,roll,yaw"; empty = the planned set-up
+  std::string optimizer = "nelder-mead"; ///< of the 6-DOF stages: one name, or SEARCH/REFINEMENT
   bool globalSearch = false;        ///< find the start (xpGlobalSearch.h); always for a TIFF volume without initialPose
   double muWater = WaterAttenuationPerMM;
   bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
@@ -237,6 +238,10 @@ void CheckLimit(double value, double low, double high, const std::string& option
 
 /** Checks the registration settings the options set, naming the option of a value out of range. */
 void CheckRegistrationSettings(const StereoRegistrationSettings& settings);
+
+/** "SEARCH/REFINEMENT" or one optimiser for both (xpPoseOptimizer.h) into `settings`; an unknown
+ *  name is an InputError naming `option`. */
+void SetOptimizers(const std::string& text, StereoRegistrationSettings& settings, const std::string& option);
 
 /** Routes VTK's warnings and errors to stderr as single plain lines (no colour, no pipeline
  *  dump); the "returned failure" messages that follow an error xpose reports itself are dropped. */

@@ -197,6 +197,9 @@ void AddRegistrationOptions(CLI::App* command, xp::RegisterOptions& options)
   command->add_option("--initial-pose", options.initialPose,
     "Start the search here: tx,ty,tz,pitch,roll,yaw (mm, degrees), the terms of result.json's misalignment; "
     "--max-translation and --max-rotation then bound the change from it");
+  command->add_option("--optimizer", options.optimizer,
+    "Optimiser of the 6-DOF stages: nelder-mead (the paper's), sbplx, bobyqa or cobyla, or SEARCH/REFINEMENT "
+    "(nelder-mead/bobyqa); xpose bench register compares them")->capture_default_str();
   command->add_flag("--global-search", options.globalSearch,
     "Find the start over all orientations and places in both views (always for a TIFF volume without --initial-pose)");
   command->add_flag("--remove-table", options.removeTable,

@@ -417,8 +417,10 @@ int RunRegister(const RegisterOptions& options)
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
   CheckRegistrationSettings(options.settings);
+  StereoRegistrationSettings optimizers;
+  SetOptimizers(options.optimizer, optimizers, "--optimizer"); // checked before the CT is read
   if (!options.initialPose.empty())
-    Pose::Parse(options.initialPose, "--initial-pose"); // checked before the CT is read
+    Pose::Parse(options.initialPose, "--initial-pose");
   // Output folders are checked before the work, not after it: a registration whose result
   // cannot be written must not run for seconds and then fail.
   StagedOutputDirectory::CheckWritable(options.outputDirectory);
@@ -454,6 +456,7 @@ int RunRegister(const RegisterOptions& options)
   registration->SetMuWater(options.muWater);
   registration->SetShrinkFactor(inputs.shrinkFactor);
   StereoRegistrationSettings settings = options.settings;
+  SetOptimizers(options.optimizer, settings, "--optimizer");
   if (!options.initialPose.empty())
     settings.initialPose = Pose::Parse(options.initialPose, "--initial-pose");
   else if (UsesGlobalSearch(options))

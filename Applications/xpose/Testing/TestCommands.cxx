@@ -518,6 +518,9 @@ TEST(Commands, RegisterBadInputExitsWithTwo)
   options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
   options.size = "300x200";
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "size";
+  options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
+  options.optimizer = "nelder-mead/simplex";
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "optimiser";
   EXPECT_FALSE(Exists("cmd-reg-bad"));
 }
 
