@@ -768,6 +768,9 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     restartSettings.initialStepMM = 1.0;
     restartSettings.initialStepDegrees = 1.0;
     restartSettings.maxRestarts = 1;
+    // A restart still travelling after 150 evaluations is in a flat valley: it ends where it is,
+    // and that disagreement is the answer (four unbounded ones took 10 s on the metacarpal).
+    restartSettings.maxEvaluations = std::min(restartSettings.maxEvaluations, 150);
     for (int k = 0; k < 4; ++k)
     {
       std::array<double, 6> p = fineResult.pose.Parameters();
