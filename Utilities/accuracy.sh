@@ -3,6 +3,8 @@
 # the physics simulator): the acceptance runs and the ablation table of Documentation/results.md;
 # and the generalisation matrix (renderer x detector format x CT, wrong patients, near anatomy).
 # Usage: bash Utilities/accuracy.sh [acceptance|ablation|all|matrix] [TRIALS_PER_ROW_OR_CELL]
+#        bash Utilities/accuracy.sh matrix TRIALS [EVALUATE_OPTIONS...]   (e.g. --registration-off median)
+# MATRIX_OUT=eval/NAME writes the matrix's cells to eval/NAME-CELL (default eval/matrix-CELL).
 # Needs build/bin/xpose, ../shared/data/ct/ (and plastimatch for the matrix); writes under eval/
 # (ignored by git).
 set -euo pipefail
@@ -41,10 +43,10 @@ header() {
 cell() { # NAME TRIALS ARGS...
   local name=$1 trials=$2
   shift 2
-  local dir=eval/matrix-$name
+  local dir=${MATRIX_OUT:-eval/matrix}-$name
   rm -rf "$dir"
   "$xpose" evaluate --geometry "$geometry" --approaches B --trials "$trials" --min-translation 1 --max-translation 20 \
-    --max-rotation 5 --size 512x384 --seed 11 "$@" --out-dir "$dir" > "$dir.log" 2>&1 || { echo "| $name | evaluate failed: see $dir.log |"; return; }
+    --max-rotation 5 --size 512x384 --seed 11 "$@" "${matrixOptions[@]}" --out-dir "$dir" > "$dir.log" 2>&1 || { echo "| $name | evaluate failed: see $dir.log |"; return; }
   local wrong=0
   case " $* " in *" --xray-ct "*|*" --xray-stretch "*) wrong=1 ;; esac
   awk -F, -v name="$name" -v wrong="$wrong" '
@@ -65,6 +67,7 @@ if [ "$what" = matrix ]; then
   [ -d eval/phantom-ct-2mm ] || "$xpose" phantom --out eval/phantom-ct-2mm --spacing 2 > /dev/null
   thorax=../shared/data/ct/thorax-crop/ct.nii.gz
   n=${2:-10}
+  matrixOptions=("${@:3}")
   echo "| cell | trials | success (ok, mTRE < 2 mm) | median mTRE of ok (mm) | median signed error of ok tx ty tz (mm) | ok beyond 2 mm | false failed (mTRE < 1 mm) | wrong-anatomy ok | median time (s) |"
   echo "|---|---|---|---|---|---|---|---|---|"
   for ct in pelvis:$pelvis thorax:$thorax phantom:eval/phantom-ct-2mm; do

@@ -99,8 +99,10 @@ StereoRegistrationSettings RegistrationSettingsOf(const EvaluateOptions& options
       settings.fineHighPassMM = 0.0;
     else if (step == "coverage")
       settings.coverageMask = false;
+    else if (step == "median")
+      settings.medianFilter = false;
     else
-      throw InputError("--registration-off", "expected levels, high-pass or coverage, got '" + step + "'");
+      throw InputError("--registration-off", "expected levels, high-pass, coverage or median, got '" + step + "'");
   }
   return settings;
 }

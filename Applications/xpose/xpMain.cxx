@@ -275,7 +275,7 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
     "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
   evaluateCommand->add_flag("!--keep-table", options.removeTable, "Register against the CT with its table");
   evaluateCommand->add_option("--registration-off", options.registrationOff,
-    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage")
+    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage, median")
     ->delimiter(',');
   AddMethodOptions(evaluateCommand, options.settings);
   AddGateOptions(evaluateCommand, options.settings);

@@ -27,6 +27,27 @@ void LevelTable::Build(const float* values, const uint8_t* mask, long long count
   }
 }
 
+std::vector<uint16_t> Median3x3(const std::vector<uint16_t>& image, int columns, int rows)
+{
+  std::vector<uint16_t> out(image.size());
+  for (int r = 0; r < rows; ++r)
+  {
+    const int above = std::max(r - 1, 0), below = std::min(r + 1, rows - 1);
+    for (int c = 0; c < columns; ++c)
+    {
+      const int left = std::max(c - 1, 0), right = std::min(c + 1, columns - 1);
+      uint16_t window[9];
+      int n = 0;
+      for (int y : { above, r, below })
+        for (int x : { left, c, right })
+          window[n++] = image[static_cast<size_t>(y) * columns + x];
+      std::nth_element(window, window + 4, window + 9);
+      out[static_cast<size_t>(r) * columns + c] = window[4];
+    }
+  }
+  return out;
+}
+
 std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask)
 {
   std::vector<long long> histogram(65536, 0);

@@ -46,6 +46,11 @@ private:
   std::vector<uint16_t> Table;
 };
 
+/** Each pixel the median of its 3x3 neighbourhood (edges replicated). Noise with heavy tails (a
+ *  log of few quanta, a "for presentation" image's unsharp mask of it, dead and hot pixels) loses
+ *  its outliers, and an edge keeps its place. */
+VTKXPREGISTRATION_EXPORT std::vector<uint16_t> Median3x3(const std::vector<uint16_t>& image, int columns, int rows);
+
 /** Mid-rank levels of a 12-bit image over its valid pixels (histogram equalisation). */
 VTKXPREGISTRATION_EXPORT std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask);
 

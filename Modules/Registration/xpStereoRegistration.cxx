@@ -479,6 +479,14 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
  *  not information. */
 constexpr double EntropyLevelsPerNoiseSigma = 16.0;
 
+/** The views with each X-ray replaced by its 3x3 median (Median3x3). */
+std::vector<RegistrationView> MedianFiltered(std::vector<RegistrationView> views)
+{
+  for (RegistrationView& item : views)
+    item.xray = Median3x3(item.xray, item.view.Columns(), item.view.Rows());
+  return views;
+}
+
 /** Each X-ray as the registration sees it (RankedXRays). */
 struct WorkingXRays
 {
@@ -605,14 +613,15 @@ std::vector<std::string> StereoRegistrationResult::Reasons() const
 }
 
 StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& inputViews, const StereoRegistrationSettings& requested,
+  const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& givenViews, const StereoRegistrationSettings& requested,
   const RegistrationObserver& observer)
 {
-  if (inputViews.size() < 2)
+  if (givenViews.size() < 2)
   {
     throw InputError("registration", "a stereo registration needs at least two views");
   }
   ValidateGateLimits(requested);
+  const std::vector<RegistrationView> inputViews = requested.medianFilter ? MedianFiltered(givenViews) : givenViews;
   StereoRegistrationResult result;
   result.boneOnly = requested.detectBoneOnly && OuterSurfaceIsBone(volume);
   // A bone turns about its own centre: about an isocentre some centimetres away, each turn would

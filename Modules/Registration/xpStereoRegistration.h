@@ -27,6 +27,9 @@ struct StereoRegistrationSettings
 {
   bool entropyMask = true;       ///< exclude low-information regions (METHOD.md step 3)
   bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
+  /** Every X-ray's 3x3 median is what the registration sees (xpImageLevels.h, Median3x3):
+   *  heavy-tailed noise decided the masks and the pose of processed pelvis X-rays (Algorithms.md). */
+  bool medianFilter = true;
   /** Register the X-rays' ranks with the open field bright (RankedXRays in the .cxx): every
    *  later step sees the same image whatever the X-ray's bit depth and grey-level mapping. */
   bool rankedXRays = true;
