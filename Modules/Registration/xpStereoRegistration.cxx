@@ -621,7 +621,6 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     throw InputError("registration", "a stereo registration needs at least two views");
   }
   ValidateGateLimits(requested);
-  const std::vector<RegistrationView> inputViews = requested.medianFilter ? MedianFiltered(givenViews) : givenViews;
   StereoRegistrationResult result;
   result.boneOnly = requested.detectBoneOnly && OuterSurfaceIsBone(volume);
   // A bone turns about its own centre: about an isocentre some centimetres away, each turn would
@@ -629,6 +628,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // are about the volume's centre at the start inside, and about the isocentre outside.
   Eigen::Vector3d isocenter = roomIsocenter;
   StereoRegistrationSettings settings = result.boneOnly ? ForBone(requested, volume) : requested;
+  const std::vector<RegistrationView> inputViews = settings.medianFilter ? MedianFiltered(givenViews) : givenViews;
   if (result.boneOnly)
   {
     isocenter = MisalignedCTToRoom(plannedCTToRoom, requested.initialPose, roomIsocenter) * volume.IndexToCT() *
