@@ -620,6 +620,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   {
     throw InputError("registration", "a stereo registration needs at least two views");
   }
+  for (const RegistrationView& item : givenViews)
+  {
+    const size_t pixels = static_cast<size_t>(item.view.Columns()) * item.view.Rows();
+    if (item.xray.size() != pixels || (!item.mask.empty() && item.mask.size() != pixels))
+      throw InputError("view " + item.view.name, "the X-ray (" + std::to_string(item.xray.size()) + " pixels) or its ROI (" +
+          std::to_string(item.mask.size()) + ") does not match the geometry's " + std::to_string(item.view.Columns()) + "x" +
+          std::to_string(item.view.Rows()) + " panel");
+  }
   ValidateGateLimits(requested);
   StereoRegistrationResult result;
   result.boneOnly = requested.detectBoneOnly && OuterSurfaceIsBone(volume);

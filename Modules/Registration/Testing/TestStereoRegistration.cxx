@@ -789,3 +789,19 @@ TEST(StereoRegistrationFormats, DeadAndHotPixelsDoNotMoveTheAnswer)
   for (size_t v = 0; v < result.validFraction.size(); ++v)
     EXPECT_GT(result.validFraction[v], 0.8 * reference.validFraction[v]) << "view " << v << ": the outliers decided the mask";
 }
+
+TEST(StereoRegistrationInput, AnXRayOfAnotherSizeThanItsPanelIsRefusedNamingTheView)
+{
+  Scene scene;
+  std::vector<xp::RegistrationView> views = Simulate(scene, xp::Pose(), 3);
+  views[1].xray.pop_back();
+  try
+  {
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+    FAIL() << "a short X-ray was registered";
+  }
+  catch (const xp::InputError& error)
+  {
+    EXPECT_NE(std::string(error.what()).find("view " + views[1].view.name), std::string::npos) << error.what();
+  }
+}
