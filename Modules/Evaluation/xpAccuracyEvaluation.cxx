@@ -86,6 +86,7 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
       r.endFacesLeftOut += (faces.facesToLeaveOut >> f) & 1;
     }
   r.peakMargin = result.peakMargin;
+  r.peakLeads = result.peakLeads;
   r.uncertaintyMM = std::max({ result.uncertainty[0], result.uncertainty[1], result.uncertainty[2] });
   r.uncertaintyDegrees = std::max({ result.uncertainty[3], result.uncertainty[4], result.uncertainty[5] });
   for (const std::string& reason : result.Reasons())

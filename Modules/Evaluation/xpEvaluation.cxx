@@ -119,7 +119,7 @@ std::string TrialCSVHeader()
     header += std::string(",error_") + axis;
   return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
                   "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
-                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,halves_scale,reasons";
+                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,halves_scale,peak_leads,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -140,7 +140,10 @@ std::string TrialCSVRow(const TrialRecord& r)
       << r.residualMM << ',' << r.uncovered << ',' << r.searchApartMM << ',' << r.searchApartDegrees << ','
       << r.validPixels << ',' << r.endFaceExcessMin << ',' << r.endFaceExcessMax << ',' << r.endFacesLeftOut << ','
       << r.peakMargin << ',' << r.uncertaintyMM << ',' << r.uncertaintyDegrees << ',' << r.halvesApartMM << ','
-      << r.halvesScale << ',' << reasons;
+      << r.halvesScale << ',';
+  for (size_t k = 0; k < r.peakLeads.size(); ++k)
+    row << (k ? " " : "") << r.peakLeads[k];
+  row << ',' << reasons;
   return row.str();
 }
 
@@ -205,6 +208,10 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       r.endFacesLeftOut = std::stoi(f[i++]);
       for (double* v : { &r.peakMargin, &r.uncertaintyMM, &r.uncertaintyDegrees, &r.halvesApartMM, &r.halvesScale })
         *v = std::stod(f[i++]);
+      std::istringstream leads(f[i++]);
+      for (double& v : r.peakLeads)
+        if (!(leads >> v))
+          throw std::invalid_argument("peak_leads");
       r.reasons = f[i++];
       records.push_back(r);
     }

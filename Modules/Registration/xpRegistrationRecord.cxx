@@ -197,6 +197,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.halvesApartMM = result.halvesApartMM;
   record.halvesScale = result.halvesScale;
   record.peakMargin = result.peakMargin;
+  record.peakLeads = result.peakLeads;
   record.stages = result.stages;
   record.objectiveTrace = result.objectiveTrace;
   return record;
@@ -248,6 +249,12 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   for (int a = 0; a < 6; ++a)
     root["uncertainty"][axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
   root["peak_margin"] = r.peakMargin;
+  // Each held-out neighbour's lead, per axis [at -step, at +step].
+  for (int a = 0; a < 6; ++a)
+  {
+    root["held_out_leads"][axes[a]].append(r.peakLeads[2 * a]);
+    root["held_out_leads"][axes[a]].append(r.peakLeads[2 * a + 1]);
+  }
   root["halves_apart_mm"] = PerView(r.viewNames, r.halvesApartMM);
   root["halves_scale"] = PerView(r.viewNames, r.halvesScale);
   // How each X-ray's grey levels were read: bright = transmission (raw) or attenuation (log),

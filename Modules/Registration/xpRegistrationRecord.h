@@ -62,6 +62,7 @@ struct RegistrationRecord
   std::vector<double> halvesApartMM; ///< per view; written, not read back
   std::vector<double> halvesScale;   ///< per view; written, not read back
   double peakMargin = 0.0;
+  std::array<double, 12> peakLeads{}; ///< StereoRegistrationResult::peakLeads; written, not read back
   std::vector<RegistrationStage> stages;
   std::vector<double> objectiveTrace;
   std::optional<RegistrationRecordInputs> inputs; ///< absent when no command wrote the record

@@ -402,7 +402,9 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
     for (double sign : { -1.0, 1.0 })
     {
       const double neighbour = heldOut.Evaluate(moved(a, sign * (a < 3 ? settings.landscapeCheckMM : settings.landscapeCheckDegrees)));
-      out.peakMargin = std::min(out.peakMargin, check > 0.0 ? (check - neighbour) / check : -1.0);
+      const double lead = check > 0.0 ? (check - neighbour) / check : -1.0;
+      out.peakLeads[2 * a + (sign > 0.0 ? 1 : 0)] = lead;
+      out.peakMargin = std::min(out.peakMargin, lead);
     }
   out.drrCount += heldOut.RenderedDRRs();
 }
@@ -817,8 +819,10 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
         AndCoverage(item, coverage, resultCTToRoom, result.endFaces[v].facesToLeaveOut);
       wholeViews.push_back(item);
     }
-    if (result.boneOnly)
-      AndShadow(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM);
+    // Where no ray meets the CT there is only what it does not hold: open field shaded by the
+    // heel effect and scatter, a couch. Beyond the outline's margin that is no evidence about
+    // the pose, and it flattened the peak of a rounded head along roll (Algorithms.md).
+    AndShadow(wholeViews, volume, resultCTToRoom, result.boneOnly ? settings.boneShadowFineMarginMM : settings.heldOutShadowMarginMM);
     StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
       { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
     heldOut.SetCostSink(&cost);

@@ -116,10 +116,13 @@ struct StereoRegistrationSettings
   double ambiguousObjectiveRatio = 0.99;
   /** The landscape around the result (MeasureLandscape in the .cxx): the refinement's objective
    *  `landscapeNear...` either side of the result along each axis gives the uncertainty; a
-   *  held-out similarity (the ROI and CT coverage without the entropy mask, half size) `landscapeCheck...` either side must
+   *  held-out similarity (the ROI, the CT's coverage and its shadow without the entropy mask, half size) `landscapeCheck...` either side must
    *  score below the result. */
   double landscapeNearMM = 1.5, landscapeNearDegrees = 1.0;
   double landscapeCheckMM = 3.0, landscapeCheckDegrees = 1.5;
+  /** The held-out similarity keeps only the CT's shadow at the result, widened by this (mm on the
+   *  panel; about the 3 mm check's shift at the panel): its outline and what lies within. */
+  double heldOutShadowMarginMM = 5.0;
   /** gate: the result's least relative lead over those held-out neighbours: 0.085 and more for
    *  the right anatomy's `ok` results (the 10-trial matrix, the 50-trial scenarios), 0.056 and
    *  0.067 for processed X-rays of a pelvis 10 % longer that passed every other check 1.8 and
@@ -179,6 +182,8 @@ struct StereoRegistrationResult
    *  maximum along that axis. */
   std::array<double, 6> uncertainty{};
   double peakMargin = 0.0;               ///< least lead of the result over its held-out neighbours
+  /** Each neighbour's lead: axis a (tx, ty, tz, pitch, roll, yaw) at -step in [2a], +step in [2a + 1]. */
+  std::array<double, 12> peakLeads{};
     std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;

@@ -71,6 +71,24 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_FALSE(xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r").inputs.has_value());
 }
 
+TEST(RegistrationRecord, WritesEachHeldOutLeadUnderItsAxisAndSide)
+{
+  xp::StereoRegistrationResult result;
+  for (int k = 0; k < 12; ++k)
+    result.peakLeads[k] = (k % 2 ? 1.0 : -1.0) * (k + 1) / 100.0; // -0.01, +0.02, ... distinct and signed
+  const std::string json = xp::RegistrationRecordJSON(xp::MakeRegistrationRecord(result, { "A", "B" }));
+  const std::string compact = [&] {
+    std::string s;
+    for (char c : json)
+      if (c != ' ' && c != '\n')
+        s += c;
+    return s;
+  }();
+  EXPECT_NE(compact.find("\"tx_mm\":[-0.01,0.02]"), std::string::npos) << json;
+  EXPECT_NE(compact.find("\"roll_deg\":[-0.09,0.1]"), std::string::npos) << json;
+  EXPECT_NE(compact.find("\"yaw_deg\":[-0.11,0.12]"), std::string::npos) << json;
+}
+
 TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)
 {
   const std::string good = xp::RegistrationRecordJSON(FailedRecord());
