@@ -824,7 +824,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     // the pose, and it flattened the peak of a rounded head along roll (Algorithms.md).
     AndShadow(wholeViews, volume, resultCTToRoom, result.boneOnly ? settings.boneShadowFineMarginMM : settings.heldOutShadowMarginMM);
     StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
-      { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
+      { settings.equalizedLevels, settings.heldOutHighPassMM, correlationMM });
     heldOut.SetCostSink(&cost);
     const auto objective = [&](const Pose& p)
     {

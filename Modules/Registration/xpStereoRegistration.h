@@ -55,10 +55,11 @@ struct StereoRegistrationSettings
   /** MI on equalised levels (xpStereoSimilarity.h); false: on 12-bit transmission as it is. */
   bool equalizedLevels = true;
   /** The full-resolution refinement removes shading wider than this (mm on the panel) from
-   *  both images' ranks (xpImageLevels.h): scatter, heel and couch shade an X-ray smoothly, and
-   *  MI would trade pose for shading. 0 = off. The coarse stages keep the shading, which helps
-   *  them travel. */
-  double fineHighPassMM = 20.0;
+   *  both images' ranks (xpImageLevels.h): scatter, heel and couch shade an X-ray, and MI would
+   *  trade pose for shading. At 20 mm a couch's slab still leaned the physics simulator's pelvis
+   *  by +0.4 to +0.8 mm along ty; at 5 mm only the edges of such plateaus are left (Algorithms.md,
+   *  "A verdict...", 7). 0 = off. The coarse stages keep the shading, which helps them travel. */
+  double fineHighPassMM = 5.0;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
   bool coverageMask = true;
@@ -123,6 +124,10 @@ struct StereoRegistrationSettings
   /** The held-out similarity keeps only the CT's shadow at the result, widened by this (mm on the
    *  panel; about the 3 mm check's shift at the panel): its outline and what lies within. */
   double heldOutShadowMarginMM = 5.0;
+  /** ... and removes shading wider than this (mm on the panel) from both images' ranks, as the
+   *  refinement does with fineHighPassMM; its own setting, so that the check's scale (the leads
+   *  minPeakMargin was calibrated on) stays when the refinement's changes. */
+  double heldOutHighPassMM = 20.0;
   /** gate: the result's least relative lead over those held-out neighbours: 0.085 and more for
    *  the right anatomy's `ok` results (the 10-trial matrix, the 50-trial scenarios), 0.056 and
    *  0.067 for processed X-rays of a pelvis 10 % longer that passed every other check 1.8 and

@@ -10,6 +10,18 @@
 namespace xp
 {
 
+namespace
+{
+
+/** The high-pass's sd in pixels: never below 3, where a narrower one on coarse pixels leaves
+ *  little but noise and the edges' own sampling (80x60 panels of 5 mm with a 5 mm sd split
+ *  the halves of a rigid phantom 1.05 mm apart). */
+double HighPassPixels(double sigmaMM, const XRayView& view)
+{
+  return std::max(3.0, sigmaMM / view.pixelSpacing[0]);
+}
+
+} // namespace
 
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
   const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins, const SimilarityLevels& levels)
@@ -51,7 +63,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
       // Ranks, less their shading, ranked again.
       std::vector<float> structure(this->XRayRanks.back().begin(), this->XRayRanks.back().end());
       const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
-      SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), this->HighPassMM / item.view.pixelSpacing[0]);
+      SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), HighPassPixels(this->HighPassMM, item.view));
       LevelTable table;
       table.Build(structure.data(), mask, static_cast<long long>(pixels));
       for (size_t i = 0; i < pixels; ++i)
@@ -149,7 +161,7 @@ void StereoSimilarity::RankDRR(size_t v)
   structure.resize(integral.size());
   for (long long i = 0; i < count; ++i)
     structure[i] = (mask && !mask[i]) ? 0.0f : levels(integral[i]);
-  SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), this->HighPassMM / item.view.pixelSpacing[0]);
+  SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), HighPassPixels(this->HighPassMM, item.view));
   LevelTable& structureLevels = this->StructureLevels[v];
   if (structureLevels.Empty())
     structureLevels.Build(structure.data(), mask, count);

@@ -281,7 +281,7 @@ TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
   coarser.bins = 16;
   registration->SetSettings(coarser);
   registration->Update();
-  EXPECT_TRUE(registration->GetResult().ok);
+  EXPECT_TRUE(registration->GetResult().ok) << (registration->GetResult().Reasons().empty() ? "" : registration->GetResult().Reasons().front());
   EXPECT_LT((registration->GetResult().misalignment.translation - truth.translation).norm(), 0.6);
   EXPECT_EQ(registration->GetOutput(3)->GetDimensions()[0], 80);
   EXPECT_EQ(registration->GetOutput(3)->GetDimensions()[1], 60);
