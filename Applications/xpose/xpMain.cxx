@@ -33,9 +33,6 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
     "Gate: mm (at the isocentre) a view's own 2D registration may still move")->capture_default_str();
   command->add_option("--max-halves-apart-mm", settings.maxHalvesApartMM,
     "Gate: mm (at the isocentre) that a view's two halves, each registered on its own, may end apart")->capture_default_str();
-  command->add_option("--max-halves-scale", settings.maxHalvesScale,
-    "Gate: and apart by at most this fraction of the halves' distance (0.05: an anatomy 5 % larger or smaller)")
-    ->capture_default_str();
   command->add_option("--max-uncovered", settings.maxUncovered,
     "Gate: fraction of a view's valid pixels that may show anatomy the CT does not cover")->capture_default_str();
   command->add_option("--max-search-apart-mm", settings.maxSearchDisagreementMM,

@@ -66,7 +66,6 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
     r.residualMM = *std::max_element(result.viewResidualMM.begin(), result.viewResidualMM.end());
     r.uncovered = *std::max_element(result.uncovered.begin(), result.uncovered.end());
     r.halvesApartMM = *std::max_element(result.halvesApartMM.begin(), result.halvesApartMM.end());
-    r.halvesScale = *std::max_element(result.halvesScale.begin(), result.halvesScale.end());
   }
   r.searchApartMM = result.searchDisagreementMM;
   r.searchApartDegrees = result.searchDisagreementDegrees;

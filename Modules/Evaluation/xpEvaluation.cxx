@@ -119,7 +119,7 @@ std::string TrialCSVHeader()
     header += std::string(",error_") + axis;
   return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
                   "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
-                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,halves_scale,peak_leads,reasons";
+                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -139,8 +139,7 @@ std::string TrialCSVRow(const TrialRecord& r)
       << r.fineSeconds << ',' << r.totalSeconds << ',' << r.drrCount << ',' << r.evaluations << ',' << r.explained << ','
       << r.residualMM << ',' << r.uncovered << ',' << r.searchApartMM << ',' << r.searchApartDegrees << ','
       << r.validPixels << ',' << r.endFaceExcessMin << ',' << r.endFaceExcessMax << ',' << r.endFacesLeftOut << ','
-      << r.peakMargin << ',' << r.uncertaintyMM << ',' << r.uncertaintyDegrees << ',' << r.halvesApartMM << ','
-      << r.halvesScale << ',';
+      << r.peakMargin << ',' << r.uncertaintyMM << ',' << r.uncertaintyDegrees << ',' << r.halvesApartMM << ',';
   for (size_t k = 0; k < r.peakLeads.size(); ++k)
     row << (k ? " " : "") << r.peakLeads[k];
   row << ',' << reasons;
@@ -206,7 +205,7 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       r.endFaceExcessMin = std::stod(f[i++]);
       r.endFaceExcessMax = std::stod(f[i++]);
       r.endFacesLeftOut = std::stoi(f[i++]);
-      for (double* v : { &r.peakMargin, &r.uncertaintyMM, &r.uncertaintyDegrees, &r.halvesApartMM, &r.halvesScale })
+      for (double* v : { &r.peakMargin, &r.uncertaintyMM, &r.uncertaintyDegrees, &r.halvesApartMM })
         *v = std::stod(f[i++]);
       std::istringstream leads(f[i++]);
       for (double& v : r.peakLeads)

@@ -43,7 +43,6 @@ struct TrialRecord
    *  uncertainty in mm and in degrees (inf: no maximum along some axis). */
   double peakMargin = 0.0, uncertaintyMM = 0.0, uncertaintyDegrees = 0.0;
   double halvesApartMM = 0.0; ///< the largest over views (xpQualityGate.h)
-  double halvesScale = 0.0;   ///< the largest over views (xpQualityGate.h)
   std::array<double, 12> peakLeads{}; ///< each held-out neighbour's lead (StereoRegistrationResult::peakLeads)
   std::string reasons;               ///< the gate's reasons, ';'-separated
 };

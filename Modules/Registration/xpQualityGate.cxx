@@ -70,7 +70,7 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
          std::make_pair(settings.maxViewResidualDegrees, "maxViewResidualDegrees"),
          std::make_pair(settings.maxUncovered, "maxUncovered"), std::make_pair(settings.maxUncertaintyMM, "maxUncertaintyMM"),
          std::make_pair(settings.maxUncertaintyDegrees, "maxUncertaintyDegrees"),
-         std::make_pair(settings.maxHalvesApartMM, "maxHalvesApartMM"), std::make_pair(settings.maxHalvesScale, "maxHalvesScale"),
+         std::make_pair(settings.maxHalvesApartMM, "maxHalvesApartMM"),
          std::make_pair(settings.halvesSearchStepMM, "halvesSearchStepMM"),
          std::make_pair(settings.maxRestartsApartMM, "maxRestartsApartMM"),
          std::make_pair(settings.maxRestartsApartDegrees, "maxRestartsApartDegrees"),
@@ -205,12 +205,6 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
           Format(": its two halves, each registered on its own, end %.2f mm apart (> %.2f mm): the anatomy does not "
                  "fit one rigid pose (another patient, or a changed one)",
             view.halvesApartMM, settings.maxHalvesApartMM) });
-    else if (!(view.halvesScale <= settings.maxHalvesScale))
-      failures.push_back({ GateCode::HalvesDisagree, index,
-        "view " + view.name +
-          Format(": its two halves, each registered on its own, end apart by %.1f %% of their distance (> %.1f %%): the "
-                 "anatomy is larger or smaller than the CT's (another patient, or a changed one)",
-            100.0 * view.halvesScale, 100.0 * settings.maxHalvesScale) });
     if (!(view.residualMM <= settings.maxViewResidual && std::abs(view.residualDegrees) <= settings.maxViewResidualDegrees))
       failures.push_back({ GateCode::ViewDisagrees, index,
         "view " + view.name +

@@ -64,10 +64,6 @@ struct ViewEvidence
   /** The largest distance (mm at the isocentre) between the 2D registrations of the view's two
    *  halves (left/right, top/bottom), each on its own. */
   double halvesApartMM = 0.0;
-  /** Per split, the halves' shift apart along the axis across the split over their centroids'
-   *  distance along it: how much larger (or smaller) the X-ray's anatomy is than the CT's along
-   *  that image axis; the larger of the two splits. 0.1: 10 %. */
-  double halvesScale = 0.0;
 };
 
 /** The failures' messages, in order. */

@@ -195,7 +195,6 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.uncertainty = result.uncertainty;
   record.xrayCorrelation = result.xrayCorrelation;
   record.halvesApartMM = result.halvesApartMM;
-  record.halvesScale = result.halvesScale;
   record.peakMargin = result.peakMargin;
   record.peakLeads = result.peakLeads;
   record.stages = result.stages;
@@ -256,7 +255,6 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     root["held_out_leads"][axes[a]].append(r.peakLeads[2 * a + 1]);
   }
   root["halves_apart_mm"] = PerView(r.viewNames, r.halvesApartMM);
-  root["halves_scale"] = PerView(r.viewNames, r.halvesScale);
   // How each X-ray's grey levels were read: bright = transmission (raw) or attenuation (log),
   // from the sign of its correlation with the DRR at the start pose.
   for (size_t v = 0; v < r.viewNames.size() && v < r.xrayCorrelation.size(); ++v)

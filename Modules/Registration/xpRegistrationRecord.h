@@ -60,7 +60,6 @@ struct RegistrationRecord
    *  attenuation, as log images); written, not read back. */
   std::vector<double> xrayCorrelation;
   std::vector<double> halvesApartMM; ///< per view; written, not read back
-  std::vector<double> halvesScale;   ///< per view; written, not read back
   double peakMargin = 0.0;
   std::array<double, 12> peakLeads{}; ///< StereoRegistrationResult::peakLeads; written, not read back
   std::vector<RegistrationStage> stages;

@@ -449,30 +449,18 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
   const int medianColumn = validColumns[validColumns.size() / 2], medianRow = validRows[validRows.size() / 2];
   for (int split = 0; split < 2; ++split)
   {
-    Eigen::Vector2d shifts[2], centroids[2];
+    Eigen::Vector2d shifts[2];
     for (int side = 0; side < 2; ++side)
     {
       std::vector<uint8_t> half = item.mask;
-      Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-      double count = 0.0;
       for (int r = 0; r < rows; ++r)
         for (int c = 0; c < columns; ++c)
-        {
-          const size_t i = static_cast<size_t>(r) * columns + c;
           if ((split == 0 ? c >= medianColumn : r >= medianRow) != (side == 1))
-            half[i] = 0;
-          else if (half[i])
-            sum += Eigen::Vector2d(c, r), count += 1.0;
-        }
-      centroids[side] = count > 0.0 ? Eigen::Vector2d(sum / count) : Eigen::Vector2d::Zero();
+            half[static_cast<size_t>(r) * columns + c] = 0;
       shifts[side] = Register2D(fine.XRayLevels(v), fine.LastDRRLevels(v), columns, rows, item.view.Project(isocenter),
         half.data(), settings.bins, settings.halvesSearchStepMM / mmPerPixel).shift;
     }
     evidence.halvesApartMM = std::max(evidence.halvesApartMM, (shifts[0] - shifts[1]).norm() * mmPerPixel);
-    // Along the axis across the split: a stretch moves each half with its own centroid.
-    const double baseline = std::abs(centroids[1][split] - centroids[0][split]);
-    if (baseline > 0.0)
-      evidence.halvesScale = std::max(evidence.halvesScale, std::abs(shifts[1][split] - shifts[0][split]) / baseline);
   }
   return evidence;
 }
@@ -865,7 +853,6 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     result.uncovered.push_back(view.uncovered);
     result.viewResidualMM.push_back(view.residualMM);
     result.halvesApartMM.push_back(view.halvesApartMM);
-    result.halvesScale.push_back(view.halvesScale);
     evidence.views.push_back(view);
   }
   result.failures = CheckQuality(evidence, settings);

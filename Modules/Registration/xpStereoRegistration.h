@@ -92,10 +92,6 @@ struct StereoRegistrationSettings
    *  started with the view residual's 0.5 mm steps stayed in the nearest local optimum and
    *  ended 0.5 mm apart, and such results ended `ok` up to 7 mm off. */
   double halvesSearchStepMM = 3.0;
-  /** gate: and apart by at most this fraction of the halves' centroids' distance (ViewEvidence::
-   *  halvesScale): a narrow band of valid pixels keeps the halves close, and a 10 % larger
-   *  anatomy moves them apart by only 10 % of that. */
-  double maxHalvesScale = 1.0;
   /** gate: largest fraction of a view's valid pixels that may show attenuation where the final
    *  DRR's ray meets no CT (X-ray anatomy the CT does not cover at the result). */
   double maxUncovered = 0.2;
@@ -167,7 +163,6 @@ struct StereoRegistrationResult
   std::vector<double> uncovered;         ///< per view: valid pixels showing anatomy where the CT has none
   std::vector<double> viewResidualMM;    ///< per view: its own 2D registration's remaining shift (mm at the isocentre)
   std::vector<double> halvesApartMM;     ///< per view: its halves' 2D registrations apart (mm at the isocentre)
-  std::vector<double> halvesScale;       ///< per view: that over their distance (ViewEvidence::halvesScale)
   std::vector<double> validFraction;     ///< of each mask
   /** Per view: correlation of the X-ray's ranks with the DRR at the start pose, and whether the
    *  X-ray was taken as bright = attenuation (log, processed) and turned over for that. */
