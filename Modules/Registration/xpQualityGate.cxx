@@ -91,6 +91,12 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
   {
     throw InputError("registration settings: boneCorrelationHighPassMM", "must be finite and not negative");
   }
+  // The held-out check's pixels and scale: a NaN or negative value would dilate by nothing
+  // (or everything) and keep the open field the check is meant to leave out.
+  for (const auto& [value, name] : { std::make_pair(settings.heldOutShadowMarginMM, "heldOutShadowMarginMM"),
+         std::make_pair(settings.heldOutHighPassMM, "heldOutHighPassMM") })
+    if (!(value >= 0.0 && value <= 500.0))
+      throw InputError(std::string("registration settings: ") + name, "must be between 0 and 500 mm");
   if (!(settings.minValidPixelsPerCell >= 0.0 && settings.minValidPixelsPerCell <= 1000.0))
   {
     throw InputError("registration settings: minValidPixelsPerCell", "must be between 0 and 1000");

@@ -213,3 +213,22 @@ TEST(QualityGate, RestartsThatDoNotComeBackFail)
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::RestartsDisagree), "restarts_disagree");
 }
 
+
+TEST(QualityGate, HeldOutCheckSettingsOutOfRangeAreRefusedByName)
+{
+  xp::StereoRegistrationSettings settings;
+  EXPECT_NO_THROW(xp::ValidateGateLimits(settings));
+  settings.heldOutShadowMarginMM = std::nan("");
+  try
+  {
+    xp::ValidateGateLimits(settings);
+    FAIL() << "a NaN margin was accepted";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("heldOutShadowMarginMM"), std::string::npos) << e.what();
+  }
+  settings.heldOutShadowMarginMM = 5.0;
+  settings.heldOutHighPassMM = -1.0;
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+}
