@@ -40,7 +40,7 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
   command->add_option("--max-search-apart-deg", settings.maxSearchDisagreementDegrees, "Gate: and degrees")
     ->capture_default_str();
   command->add_option("--min-peak-margin", settings.minPeakMargin,
-    "Gate: least relative lead of the result over poses 3 mm / 1.5 degrees away, on a similarity the optimiser did not use")
+    "Gate: least relative lead of the result over the poses 3 mm away along x, y and z, on a similarity the optimiser did not use")
     ->capture_default_str();
   command->add_option("--max-uncertainty-mm", settings.maxUncertaintyMM,
     "Gate: largest uncertainty of each translation (mm): where the similarity falls by 5 % of its peak")->capture_default_str();

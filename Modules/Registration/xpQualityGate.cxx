@@ -157,7 +157,7 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
   if (!(evidence.peakMargin >= settings.minPeakMargin))
     failures.push_back({ GateCode::NotDistinct, -1,
       Format("on a similarity the optimiser did not use (the pixels its masks left out as well) the result leads the "
-             "poses %.1f mm and %.1f degrees away", settings.landscapeCheckMM, settings.landscapeCheckDegrees) +
+             "poses %.1f mm away", settings.landscapeCheckMM) +
         Format(" by %.1f %% (< %.1f %%): the images do not single out this pose", 100.0 * evidence.peakMargin,
           100.0 * settings.minPeakMargin) });
   static const char* axes[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };

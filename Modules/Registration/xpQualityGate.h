@@ -82,7 +82,7 @@ struct GateEvidence
   double searchApartMM = 0.0, searchApartDegrees = 0.0;
   std::vector<ViewEvidence> views;
   std::array<double, 6> uncertainty{}; ///< per axis: mm, mm, mm, degrees, degrees, degrees
-  double peakMargin = 0.0;             ///< the result's least lead over held-out neighbours
+  double peakMargin = 0.0;             ///< the result's least lead over its translated held-out neighbours
   /** Refinements restarted around the result (bones; negative = not run): the farthest end. */
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0;
 };

@@ -376,7 +376,10 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, const Pose& 
  * refinement). The right anatomy peaks at the
  * right pose under any reasonable similarity; a pose that only the optimised, masked objective
  * favours (another patient's X-rays, an anatomy no pose fits) is beaten by a neighbour there.
- * The peak margin is the least relative lead of the result over those neighbours.
+ * The peak margin is the least relative lead of the result over the translated neighbours: the
+ * turned ones are recorded, not judged, since smooth shading (the heel effect) moves a rounded
+ * head's held-out peak along roll by more than the 1.5 degree probe while its result is right to
+ * 0.3 degree (Algorithms.md, "A verdict...", 2).
  */
 void MeasureLandscape(const std::function<double(const Pose&)>& objective, StereoSimilarity& heldOut, const Pose& result,
   double atResult, const StereoRegistrationSettings& settings, StereoRegistrationResult& out)
@@ -404,7 +407,8 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
       const double neighbour = heldOut.Evaluate(moved(a, sign * (a < 3 ? settings.landscapeCheckMM : settings.landscapeCheckDegrees)));
       const double lead = check > 0.0 ? (check - neighbour) / check : -1.0;
       out.peakLeads[2 * a + (sign > 0.0 ? 1 : 0)] = lead;
-      out.peakMargin = std::min(out.peakMargin, lead);
+      if (a < 3)
+        out.peakMargin = std::min(out.peakMargin, lead);
     }
   out.drrCount += heldOut.RenderedDRRs();
 }

@@ -17,7 +17,7 @@ xp::GateEvidence GoodEvidence()
   xp::GateEvidence evidence;
   evidence.misalignment = xp::Pose::Parse("3,-2,1,1,-1,0.5", "pose");
   evidence.converged = true;
-  evidence.peakMargin = 0.1;
+  evidence.peakMargin = 0.2;
   evidence.uncertainty = { 0.2, 0.3, 0.2, 0.1, 0.2, 0.1 };
   for (const char* name : { "A", "B" })
   {
@@ -68,9 +68,9 @@ TEST(QualityGate, FailsAResultThatDoesNotStandOutOrIsUncertain)
   xp::GateEvidence e = GoodEvidence();
   e.peakMargin = -0.01; // a neighbour scores 1 % higher on the held-out similarity
   EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::NotDistinct });
-  e.peakMargin = 0.074;  // the result leads its neighbours by less than 7.5 %
+  e.peakMargin = 0.139;  // the result leads its neighbours by less than 14 %
   EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::NotDistinct });
-  e.peakMargin = 0.075;  // on the limit passes
+  e.peakMargin = 0.14;   // on the limit passes
   EXPECT_TRUE(Codes(e).empty());
   e.peakMargin = std::nan("");
   EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::NotDistinct });
