@@ -101,10 +101,10 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
   {
     throw InputError("registration settings: minValidPixelsPerCell", "must be between 0 and 1000");
   }
-  if (!(settings.minPeakMargin >= -1.0 && settings.minPeakMargin <= 1.0))
-  {
-    throw InputError("registration settings: minPeakMargin", "must be between -1 and 1");
-  }
+  for (const auto& [value, name] :
+    { std::make_pair(settings.minPeakMargin, "minPeakMargin"), std::make_pair(settings.boneMinPeakMargin, "boneMinPeakMargin") })
+    if (!(value >= -1.0 && value <= 1.0))
+      throw InputError(std::string("registration settings: ") + name, "must be between -1 and 1");
   if (!(settings.minValidFraction >= 0.0 && settings.minValidFraction <= 1.0))
   {
     throw InputError("registration settings: minValidFraction", "must be between 0 and 1");
@@ -158,6 +158,7 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
     failures.push_back({ GateCode::NotDistinct, -1,
       Format("on a similarity the optimiser did not use (the pixels its masks left out as well) the result leads the "
              "poses %.1f mm away", settings.landscapeCheckMM) +
+        (settings.heldOutJudgesTurns ? Format(" and %.1f degrees turned", settings.landscapeCheckDegrees) : std::string()) +
         Format(" by %.1f %% (< %.1f %%): the images do not single out this pose", 100.0 * evidence.peakMargin,
           100.0 * settings.minPeakMargin) });
   static const char* axes[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };

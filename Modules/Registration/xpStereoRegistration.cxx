@@ -407,7 +407,7 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
       const double neighbour = heldOut.Evaluate(moved(a, sign * (a < 3 ? settings.landscapeCheckMM : settings.landscapeCheckDegrees)));
       const double lead = check > 0.0 ? (check - neighbour) / check : -1.0;
       out.peakLeads[2 * a + (sign > 0.0 ? 1 : 0)] = lead;
-      if (a < 3)
+      if (a < 3 || settings.heldOutJudgesTurns)
         out.peakMargin = std::min(out.peakMargin, lead);
     }
   out.drrCount += heldOut.RenderedDRRs();
@@ -563,6 +563,8 @@ StereoRegistrationSettings ForBone(StereoRegistrationSettings settings, const At
   settings.landscapeNearDegrees = std::max(settings.landscapeNearDegrees, settings.landscapeNearMM * degreesPerMM);
   settings.entropyMask = false;
   settings.coverageMask = false;
+  settings.heldOutJudgesTurns = true;
+  settings.minPeakMargin = settings.boneMinPeakMargin;
   // Half a bone is an end and half a shaft, which slides along itself: searched with wide steps
   // the metacarpal's halves ended 1.2-9.8 mm apart (0.5 mm steps: mostly under 1 mm). The
   // halves check of a bone stays local; its restarts test the pose.

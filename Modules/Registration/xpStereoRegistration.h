@@ -48,6 +48,9 @@ struct StereoRegistrationSettings
   /** gate, bones: four refinements restarted 2 mm and 2 degrees around the result must all end
    *  within these of it (restarts_disagree). */
   double maxRestartsApartMM = 0.5, maxRestartsApartDegrees = 0.5;
+  /** gate, bones: the held-out check on correlation (its own scale) judges the turned neighbours
+   *  too, at this least lead; the body's limits were measured on MI and do not carry over. */
+  double boneMinPeakMargin = 0.075;
   /** Where the search starts (the misalignment's terms: Room mm and degrees about the
    *  isocentre); the gate's maxTranslation and maxRotation bound the change from it. */
   Pose initialPose;
@@ -130,6 +133,8 @@ struct StereoRegistrationSettings
    *  most 0.10 where no other check failed them; the scenarios' 150 trials 0.22 and more
    *  (Algorithms.md). */
   double minPeakMargin = 0.14;
+  /** The held-out check judges the turned neighbours as well (a bone's, ForBone). */
+  bool heldOutJudgesTurns = false;
   /** gate: per-axis uncertainty (the distance over which the objective falls by 5 %). */
   double maxUncertaintyMM = 3.0;
   double maxUncertaintyDegrees = 1.5;

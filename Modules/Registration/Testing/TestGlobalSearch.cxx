@@ -103,6 +103,11 @@ TEST(GlobalSearch, FindsASmallBoneTurnedAndMovedFarFromThePlan)
   const xp::StereoRegistrationResult result = xp::RegisterStereo(bone, planned, Eigen::Vector3d::Zero(), views, settings);
   EXPECT_TRUE(result.boneOnly);
   EXPECT_LT((result.misalignment.translation - truth.translation).norm(), 1.0) << result.misalignment.ToString();
+  // A bone's held-out check is on correlation and judges all twelve neighbours, the turned too
+  // (here they lead least, so a margin of the translated alone would differ).
+  const auto& leads = result.peakLeads;
+  ASSERT_LT(*std::min_element(leads.begin() + 6, leads.end()), *std::min_element(leads.begin(), leads.begin() + 6));
+  EXPECT_DOUBLE_EQ(result.peakMargin, *std::min_element(leads.begin(), leads.end()));
   if (result.ok)
   {
     EXPECT_LT(DegreesApart(result.misalignment, truth), 1.0) << result.misalignment.ToString();

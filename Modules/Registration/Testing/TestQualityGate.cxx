@@ -231,4 +231,15 @@ TEST(QualityGate, HeldOutCheckSettingsOutOfRangeAreRefusedByName)
   settings.heldOutShadowMarginMM = 5.0;
   settings.heldOutHighPassMM = -1.0;
   EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings.heldOutHighPassMM = 20.0;
+  settings.boneMinPeakMargin = 1.5;
+  try
+  {
+    xp::ValidateGateLimits(settings);
+    FAIL() << "a bone's peak margin above 1 was accepted";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("boneMinPeakMargin"), std::string::npos) << e.what();
+  }
 }
