@@ -18,39 +18,37 @@ namespace
 constexpr double RadiansPerDegree = M_PI / 180.0;
 
 /**
- * moving(T^-1 p) for every pixel p, bilinear; `valid` marks pixels whose source is inside and
- * that `fixedMask` (may be null) keeps. Rows on all threads: the 2D registrations of the
- * pre-alignment and the quality gate warp full-size images hundreds of times.
+ * moving(T^-1 p), bilinear, at each pixel p of `kept` (row-major indices); `valid` marks those
+ * whose source lies inside. Only the pixels a mask keeps: the quality gate's 2D registrations of
+ * masked halves (a tenth of a view or less) warp and count nothing else. On all threads.
  */
-void Warp(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion, const uint8_t* fixedMask,
-  std::vector<uint16_t>& out, std::vector<uint8_t>& valid)
+void WarpKept(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion,
+  const std::vector<uint32_t>& kept, std::vector<uint16_t>& out, std::vector<uint8_t>& valid)
 {
   const double c = std::cos(-motion.rotation * RadiansPerDegree), s = std::sin(-motion.rotation * RadiansPerDegree);
-  vtkSMPTools::For(0, rows,
-    [&](int row0, int row1)
+  vtkSMPTools::For(size_t{ 0 }, kept.size(),
+    [&](size_t k0, size_t k1)
     {
-      for (int row = row0; row < row1; ++row)
+      for (size_t k = k0; k < k1; ++k)
       {
-        for (int column = 0; column < columns; ++column)
+        const int row = static_cast<int>(kept[k] / static_cast<uint32_t>(columns));
+        const int column = static_cast<int>(kept[k] % static_cast<uint32_t>(columns));
+        // T^-1 p = R^-1 (p - center - shift) + center
+        const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
+        const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
+        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+        if (x0 < 0 || y0 < 0 || x0 + 1 >= columns || y0 + 1 >= rows)
         {
-          // T^-1 p = R^-1 (p - center - shift) + center
-          const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
-          const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
-          const size_t i = static_cast<size_t>(row) * columns + column;
-          const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-          if (x0 < 0 || y0 < 0 || x0 + 1 >= columns || y0 + 1 >= rows || (fixedMask && !fixedMask[i]))
-          {
-            valid[i] = 0;
-            out[i] = 0;
-            continue;
-          }
-          const double fx = x - x0, fy = y - y0;
-          const uint16_t* p = moving.data() + static_cast<size_t>(y0) * columns + x0;
-          const double top = p[0] + fx * (p[1] - p[0]), bottom = p[columns] + fx * (p[columns + 1] - p[columns]);
-          // + 0.5 and truncation: round half up, the values are never negative.
-          out[i] = static_cast<uint16_t>(top + fy * (bottom - top) + 0.5);
-          valid[i] = 1;
+          valid[k] = 0;
+          out[k] = 0;
+          continue;
         }
+        const double fx = x - x0, fy = y - y0;
+        const uint16_t* p = moving.data() + static_cast<size_t>(y0) * columns + x0;
+        const double top = p[0] + fx * (p[1] - p[0]), bottom = p[columns] + fx * (p[columns + 1] - p[columns]);
+        // + 0.5 and truncation: round half up, the values are never negative.
+        out[k] = static_cast<uint16_t>(top + fy * (bottom - top) + 0.5);
+        valid[k] = 1;
       }
     });
 }
@@ -86,16 +84,24 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
     throw InputError("2D registration", "image sizes differ");
   }
   JointHistogram histogram(bins);
-  std::vector<uint16_t> warped(pixels);
-  std::vector<uint8_t> valid(pixels);
+  std::vector<uint32_t> kept; // the pixels the mask keeps, and their fixed values
+  std::vector<uint16_t> fixedKept;
+  for (size_t i = 0; i < pixels; ++i)
+    if (!fixedMask || fixedMask[i])
+    {
+      kept.push_back(static_cast<uint32_t>(i));
+      fixedKept.push_back(fixed[i]);
+    }
+  std::vector<uint16_t> warped(kept.size());
+  std::vector<uint8_t> valid(kept.size());
   Motion2D motion;
   motion.center = center;
   auto mi = [&](const std::vector<double>& x)
   {
     motion.shift = { x[0], x[1] };
     motion.rotation = x[2];
-    Warp(moving, columns, rows, motion, fixedMask, warped, valid);
-    histogram.Compute(fixed.data(), warped.data(), static_cast<long long>(pixels), valid.data());
+    WarpKept(moving, columns, rows, motion, kept, warped, valid);
+    histogram.Compute(fixedKept.data(), warped.data(), static_cast<long long>(kept.size()), valid.data());
     return histogram.MutualInformation();
   };
   using Objective = decltype(mi);
