@@ -126,7 +126,9 @@ std::vector<uint16_t> NoiseScaledLevels(const std::vector<uint16_t>& image, int 
 namespace
 {
 
-/** In-place separable Gaussian of a w x h float grid, edges replicated. */
+/** In-place separable Gaussian of a w x h grid, edges replicated. Each output sums its taps in
+ *  the same order (left to right, then top to bottom) whichever loop computes it: the interior
+ *  without the edge's clamping, the columns a row at a time, so that the compiler vectorises. */
 void Blur(std::vector<double>& grid, int w, int h, double sigma)
 {
   const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
@@ -135,46 +137,84 @@ void Blur(std::vector<double>& grid, int w, int h, double sigma)
     kernel[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
   std::vector<double> out(grid.size());
   for (int y = 0; y < h; ++y)
+  {
+    const double* in = grid.data() + static_cast<size_t>(y) * w;
+    double* row = out.data() + static_cast<size_t>(y) * w;
     for (int x = 0; x < w; ++x)
     {
       double s = 0.0;
-      for (int k = -radius; k <= radius; ++k)
-        s += kernel[k + radius] * grid[static_cast<size_t>(y) * w + std::clamp(x + k, 0, w - 1)];
-      out[static_cast<size_t>(y) * w + x] = s;
+      if (x >= radius && x + radius < w)
+      {
+        const double* p = in + (x - radius);
+        for (int k = 0; k <= 2 * radius; ++k)
+          s += kernel[k] * p[k];
+      }
+      else
+        for (int k = -radius; k <= radius; ++k)
+          s += kernel[k + radius] * in[std::clamp(x + k, 0, w - 1)];
+      row[x] = s;
     }
+  }
+  std::vector<double> sums(static_cast<size_t>(w));
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
+  {
+    std::fill(sums.begin(), sums.end(), 0.0);
+    for (int k = -radius; k <= radius; ++k)
     {
-      double s = 0.0;
-      for (int k = -radius; k <= radius; ++k)
-        s += kernel[k + radius] * out[static_cast<size_t>(std::clamp(y + k, 0, h - 1)) * w + x];
-      grid[static_cast<size_t>(y) * w + x] = s;
+      const double weight = kernel[k + radius];
+      const double* row = out.data() + static_cast<size_t>(std::clamp(y + k, 0, h - 1)) * w;
+      for (int x = 0; x < w; ++x)
+        sums[x] += weight * row[x];
     }
+    std::copy(sums.begin(), sums.end(), grid.begin() + static_cast<std::ptrdiff_t>(y) * w);
+  }
 }
 
 } // namespace
 
 void SubtractLowPass(float* values, const uint8_t* mask, int columns, int rows, double sigmaPixels)
 {
+  if (sigmaPixels > 0.0)
+    MaskedLowPass(mask, columns, rows, sigmaPixels).Subtract(values);
+}
+
+MaskedLowPass::MaskedLowPass(const uint8_t* mask, int columns, int rows, double sigmaPixels)
+  : Mask(mask)
+  , Columns(columns)
+  , Rows(rows)
+{
   if (!(sigmaPixels > 0.0))
     return;
-  const int factor = std::max(1, static_cast<int>(std::lround(sigmaPixels / 4.0)));
-  const int w = (columns + factor - 1) / factor, h = (rows + factor - 1) / factor;
-  std::vector<double> sum(static_cast<size_t>(w) * h, 0.0), weight(sum.size(), 0.0);
+  this->Factor = std::max(1, static_cast<int>(std::lround(sigmaPixels / 4.0)));
+  this->GridWidth = (columns + this->Factor - 1) / this->Factor;
+  this->GridHeight = (rows + this->Factor - 1) / this->Factor;
+  this->GridSigma = sigmaPixels / this->Factor;
+  this->Weight.assign(static_cast<size_t>(this->GridWidth) * this->GridHeight, 0.0);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+      if (!mask || mask[static_cast<size_t>(r) * columns + c])
+        this->Weight[static_cast<size_t>(r / this->Factor) * this->GridWidth + c / this->Factor] += 1.0;
+  Blur(this->Weight, this->GridWidth, this->GridHeight, this->GridSigma);
+}
+
+void MaskedLowPass::Subtract(float* values) const
+{
+  if (this->Weight.empty())
+    return;
+  const int columns = this->Columns, rows = this->Rows, factor = this->Factor, w = this->GridWidth, h = this->GridHeight;
+  const uint8_t* mask = this->Mask;
+  std::vector<double> sum(this->Weight.size(), 0.0);
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c)
     {
       const size_t i = static_cast<size_t>(r) * columns + c;
       if (mask && !mask[i])
         continue;
-      const size_t cell = static_cast<size_t>(r / factor) * w + c / factor;
-      sum[cell] += values[i];
-      weight[cell] += 1.0;
+      sum[static_cast<size_t>(r / factor) * w + c / factor] += values[i];
     }
-  Blur(sum, w, h, sigmaPixels / factor);
-  Blur(weight, w, h, sigmaPixels / factor);
+  Blur(sum, w, h, this->GridSigma);
   for (size_t cell = 0; cell < sum.size(); ++cell)
-    sum[cell] = weight[cell] > 1e-9 ? sum[cell] / weight[cell] : 0.0;
+    sum[cell] = this->Weight[cell] > 1e-9 ? sum[cell] / this->Weight[cell] : 0.0;
   // Bilinear between cell centres: pixel c lies at (c + 0.5) / factor - 0.5 in cell units.
   for (int r = 0; r < rows; ++r)
   {

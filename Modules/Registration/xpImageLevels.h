@@ -73,6 +73,25 @@ VTKXPREGISTRATION_EXPORT std::vector<uint16_t> NoiseScaledLevels(const std::vect
 VTKXPREGISTRATION_EXPORT void SubtractLowPass(
   float* values, const uint8_t* mask, int columns, int rows, double sigmaPixels);
 
+/**
+ * SubtractLowPass for one mask, applied many times: the mask's own low-pass (the normalised
+ * convolution's weights) is computed once. A registration high-passes every DRR over the same
+ * mask, and the weights were half of that work. Results equal SubtractLowPass's to the last bit.
+ * The mask (null: all pixels) must outlive the object.
+ */
+class VTKXPREGISTRATION_EXPORT MaskedLowPass
+{
+public:
+  MaskedLowPass(const uint8_t* mask, int columns, int rows, double sigmaPixels);
+  void Subtract(float* values) const;
+
+private:
+  const uint8_t* Mask;
+  int Columns, Rows, Factor = 1, GridWidth = 0, GridHeight = 0;
+  double GridSigma = 0.0;
+  std::vector<double> Weight; ///< the valid pixels per grid cell, blurred
+};
+
 /** Pearson correlation of two images over the `count` pixels whose mask is non-zero (null: all);
  *  0 where either is flat. */
 template <typename A, typename B>

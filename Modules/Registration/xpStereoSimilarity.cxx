@@ -70,6 +70,13 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
         this->XRayRanks.back()[i] = (mask && !mask[i]) ? 0 : table(structure[i]);
     }
   }
+  for (const RegistrationView& item : this->Items)
+  {
+    const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
+    const int columns = item.view.Columns(), rows = item.view.Rows();
+    this->DRRHighPass.emplace_back(mask, columns, rows, this->HighPassMM > 0.0 ? HighPassPixels(this->HighPassMM, item.view) : 0.0);
+    this->DRRCorrelationLowPass.emplace_back(mask, columns, rows, this->CorrelationMM / item.view.pixelSpacing[0]);
+  }
   this->IntegralLevels.resize(this->Items.size());
   this->StructureLevels.resize(this->Items.size());
   this->Structure.resize(this->Items.size());
@@ -136,7 +143,7 @@ double StereoSimilarity::CorrelateDRR(size_t v)
   structure.resize(integral.size());
   for (size_t i = 0; i < integral.size(); ++i)
     structure[i] = -integral[i];
-  SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), this->CorrelationMM / item.view.pixelSpacing[0]);
+  this->DRRCorrelationLowPass[v].Subtract(structure.data());
   return PearsonCorrelation(this->XRayStructure[v].data(), structure.data(), mask, structure.size());
 }
 
@@ -161,7 +168,7 @@ void StereoSimilarity::RankDRR(size_t v)
   structure.resize(integral.size());
   for (long long i = 0; i < count; ++i)
     structure[i] = (mask && !mask[i]) ? 0.0f : levels(integral[i]);
-  SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), HighPassPixels(this->HighPassMM, item.view));
+  this->DRRHighPass[v].Subtract(structure.data());
   LevelTable& structureLevels = this->StructureLevels[v];
   if (structureLevels.Empty())
     structureLevels.Build(structure.data(), mask, count);

@@ -116,6 +116,8 @@ private:
   std::vector<LevelTable> IntegralLevels;
   std::vector<LevelTable> StructureLevels;
   std::vector<std::vector<float>> Structure; ///< scratch of the high-pass
+  /** Per view, the DRR's high-pass and correlation low-pass over its fixed mask. */
+  std::vector<MaskedLowPass> DRRHighPass, DRRCorrelationLowPass;
   double CorrelationMM = 0.0;
   std::vector<std::vector<float>> XRayStructure; ///< with a correlation objective: ranks less their low-pass
   std::vector<double> LastNCC;

@@ -1,4 +1,4 @@
-// The X-ray's 3x3 median: outliers go, edges stay where they are.
+// The X-ray's 3x3 median: outliers go, edges stay where they are; the masked high-pass.
 #include "xpImageLevels.h"
 
 #include <gtest/gtest.h>
@@ -40,3 +40,34 @@ TEST(Median3x3, KeepsAnOrderedRampAndReplicatesTheBorder)
 }
 
 } // namespace
+
+// The high-pass removes what is wider than its sd and keeps what is narrower, over the mask's
+// pixels only: a ramp across the valid half vanishes, a one-pixel spike stays, and the masked
+// half is left as it was. A MaskedLowPass used again gives SubtractLowPass's result exactly.
+TEST(MaskedLowPass, RemovesARampKeepsASpikeAndEqualsSubtractLowPassOnReuse)
+{
+  const int columns = 96, rows = 64;
+  std::vector<uint8_t> mask(static_cast<size_t>(columns) * rows, 0);
+  std::vector<float> ramp(mask.size()), spiky(mask.size());
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+    {
+      const size_t i = static_cast<size_t>(r) * columns + c;
+      mask[i] = c < columns / 2;
+      ramp[i] = 100.0f + 2.0f * c + 0.5f * r;
+      spiky[i] = 50.0f;
+    }
+  spiky[static_cast<size_t>(32) * columns + 20] = 150.0f;
+  const double sigma = 8.0;
+  const xp::MaskedLowPass lowPass(mask.data(), columns, rows, sigma);
+  std::vector<float> once = ramp, reused = ramp;
+  xp::SubtractLowPass(once.data(), mask.data(), columns, rows, sigma);
+  lowPass.Subtract(spiky.data()); // another image first: nothing of it may stay in the object
+  lowPass.Subtract(reused.data());
+  EXPECT_EQ(once, reused);
+  // Inside the valid half, away from its edges, a linear ramp has nothing a low-pass removes.
+  EXPECT_NEAR(reused[static_cast<size_t>(32) * columns + 24], 0.0f, 0.05f);
+  EXPECT_FLOAT_EQ(reused[static_cast<size_t>(10) * columns + 70], ramp[static_cast<size_t>(10) * columns + 70]);
+  EXPECT_GT(spiky[static_cast<size_t>(32) * columns + 20], 95.0f);
+  EXPECT_NEAR(spiky[static_cast<size_t>(10) * columns + 10], 0.0f, 1.0f);
+}

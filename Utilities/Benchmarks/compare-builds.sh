@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Two builds of xpose on the same registration, alternately, on the same machine: each run's wall
+# time, and whether the two builds' results agree to the last digit (result.json without its
+# timings). For a speed change that must not change any result.
+# Usage: compare-builds.sh OLD_BUILD_DIR NEW_BUILD_DIR RUNS -- REGISTER_OPTIONS...
+#   (each BUILD_DIR holds bin/xpose and lib/; REGISTER_OPTIONS without --out-dir)
+set -euo pipefail
+old=$1 new=$2 runs=$3
+shift 3
+[ "${1:-}" = "--" ] && shift
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+for ((i = 1; i <= runs; i++)); do
+  for build in old new; do
+    dir=$old
+    [ "$build" = new ] && dir=$new
+    start=$(date +%s%N)
+    LD_LIBRARY_PATH="$dir/lib" "$dir/bin/xpose" register "$@" --out-dir "$work/$build-$i" > "$work/$build-$i.log" 2>&1 || true
+    end=$(date +%s%N)
+    printf '%s run %d: %d.%02d s (process), %s\n' "$build" "$i" $(((end - start) / 1000000000)) $(((end - start) / 10000000 % 100)) \
+      "$(grep -o '^status: [a-zA-Z]*' "$work/$build-$i.log" || echo 'no status')"
+  done
+done
+python3 - "$work" "$runs" <<'PY'
+import json, sys
+work, runs = sys.argv[1], int(sys.argv[2])
+def load(name):
+    r = json.load(open(f"{work}/{name}/result.json"))
+    r.pop("timing_s", None); r.pop("inputs", None)
+    for stage in r.get("convergence", {}).get("stages", []):
+        stage.pop("seconds", None)
+    return r
+same = all(load(f"old-{i}") == load(f"new-{i}") for i in range(1, runs + 1))
+print("results identical (result.json without timings):", "yes" if same else "NO")
+PY
