@@ -73,6 +73,9 @@ public:
   StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
     const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins = 64,
     const SimilarityLevels& levels = {});
+  // The traced pixels and the high-pass keep pointers into the views' masks: not copied.
+  StereoSimilarity(const StereoSimilarity&) = delete;
+  StereoSimilarity& operator=(const StereoSimilarity&) = delete;
 
   /** The objective at a misalignment: sum over views of MI^2 (nats^2). Renders one DRR per view. */
   double Evaluate(const Pose& misalignment);
