@@ -19,6 +19,8 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     "The refinement removes shading wider than this (sd, mm on the panel; 0: off)")->capture_default_str();
   command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
+  command->add_option("--held-out-high-pass-mm", settings.heldOutHighPassMM,
+    "The gate's held-out peak check removes shading wider than this (sd, mm on the panel)")->capture_default_str();
   command->add_option("--coverage-min-excess", settings.coverageMinExcess,
     "Those rays are left out beyond an end face where their upper quarter is more attenuated than the DRR "
     "predicts by this fraction of the X-ray's range (0: always)")->capture_default_str();
@@ -41,6 +43,9 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
     ->capture_default_str();
   command->add_option("--min-peak-margin", settings.minPeakMargin,
     "Gate: least relative lead of the result over the poses 3 mm away along x, y and z, on a similarity the optimiser did not use")
+    ->capture_default_str();
+  command->add_option("--bone-min-peak-margin", settings.boneMinPeakMargin,
+    "Gate: the same for a bone cut out of a CT, over the poses moved and turned (its similarity is a correlation)")
     ->capture_default_str();
   command->add_option("--max-uncertainty-mm", settings.maxUncertaintyMM,
     "Gate: largest uncertainty of each translation (mm): where the similarity falls by 5 % of its peak")->capture_default_str();
@@ -272,7 +277,8 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
     "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
   evaluateCommand->add_flag("!--keep-table", options.removeTable, "Register against the CT with its table");
   evaluateCommand->add_option("--registration-off", options.registrationOff,
-    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage, median")
+    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage, median, "
+    "entropy-over-coverage (the entropy mask's bar over the whole X-ray)")
     ->delimiter(',');
   AddMethodOptions(evaluateCommand, options.settings);
   AddGateOptions(evaluateCommand, options.settings);
