@@ -217,6 +217,9 @@ void PrintStages(const StereoRegistrationResult& result, const std::vector<Regis
   }
   std::printf("fine 6-DOF: %s, %d evaluations (%.2f s)\n", result.misalignment.ToString().c_str(), result.evaluations,
     result.fineSeconds);
+  for (size_t v = 0; v < result.edgeDistanceMM.size() && v < views.size(); ++v)
+    std::printf("edges, view %s: the DRR's lie %.2f mm from the X-ray's (%.2f mm with the DRR moved 3 mm)\n",
+      views[v].view.name.c_str(), result.edgeDistanceMM[v], result.edgeDistanceShiftedMM[v]);
 }
 
 /** What `xpose report` needs to rebuild the pictures: the inputs, with absolute paths. */

@@ -65,7 +65,12 @@ int RunTrack(const TrackOptions& options)
   for (size_t v = 0; v < frames.front().size(); ++v)
     csv << ",xray_" << static_cast<char>('a' + v);
   csv << ",status,tx_mm,ty_mm,tz_mm,pitch_deg,roll_deg,yaw_deg,uncertainty_tx_mm,uncertainty_ty_mm,uncertainty_tz_mm,"
-         "uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s\n";
+         "uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s";
+  // After the columns: per view, the median distance (mm at the isocentre) from the DRR's
+  // edges to the X-ray's, and the same with the DRR moved 3 mm (what chance gives).
+  for (size_t v = 0; v < frames.front().size(); ++v)
+    csv << ",edge_distance_" << static_cast<char>('a' + v) << "_mm,edge_distance_moved_" << static_cast<char>('a' + v) << "_mm";
+  csv << "\n";
   Json::Value poses(Json::arrayValue);
   std::string start = options.registration.initialPose;
   bool allOk = true, previousOk = true;
@@ -112,7 +117,11 @@ int RunTrack(const TrackOptions& options)
       csv << "," << value;
     for (double value : record.uncertainty)
       csv << "," << value;
-    csv << "," << record.totalSeconds << "\n";
+    csv << "," << record.totalSeconds;
+    for (size_t v = 0; v < frames[f].size(); ++v)
+      csv << "," << (v < record.edgeDistanceMM.size() ? record.edgeDistanceMM[v] : -1.0) << ","
+          << (v < record.edgeDistanceShiftedMM.size() ? record.edgeDistanceShiftedMM[v] : -1.0);
+    csv << "\n";
     Json::Value item;
     item["frame"] = static_cast<Json::UInt64>(f + 1);
     for (const std::string& file : frames[f])
@@ -129,6 +138,11 @@ int RunTrack(const TrackOptions& options)
     for (const std::string& reason : record.Reasons())
       item["reasons"].append(reason);
     item["time_s"] = record.totalSeconds;
+    for (size_t v = 0; v < record.edgeDistanceMM.size() && v < record.viewNames.size(); ++v)
+    {
+      item["edge_distance_mm"][record.viewNames[v]] = record.edgeDistanceMM[v];
+      item["edge_distance_moved_3mm"][record.viewNames[v]] = record.edgeDistanceShiftedMM[v];
+    }
     poses.append(item);
   }
   std::ofstream(output.Path("poses.csv")) << csv.str();

@@ -195,6 +195,8 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.uncertainty = result.uncertainty;
   record.xrayCorrelation = result.xrayCorrelation;
   record.halvesApartMM = result.halvesApartMM;
+  record.edgeDistanceMM = result.edgeDistanceMM;
+  record.edgeDistanceShiftedMM = result.edgeDistanceShiftedMM;
   record.peakMargin = result.peakMargin;
   record.peakLeads = result.peakLeads;
   record.stages = result.stages;
@@ -255,6 +257,13 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     root["held_out_leads"][axes[a]].append(r.peakLeads[2 * a + 1]);
   }
   root["halves_apart_mm"] = PerView(r.viewNames, r.halvesApartMM);
+  // The median distance (mm at the isocentre) from the DRR's edges at the result to the X-ray's,
+  // and with the DRR moved 3 mm: what the X-ray's edges alone would give (-1: no edges).
+  if (!r.edgeDistanceMM.empty())
+  {
+    root["edge_distance_mm"] = PerView(r.viewNames, r.edgeDistanceMM);
+    root["edge_distance_moved_3mm"] = PerView(r.viewNames, r.edgeDistanceShiftedMM);
+  }
   // How each X-ray's grey levels were read: bright = transmission (raw) or attenuation (log),
   // from the sign of its correlation with the DRR at the start pose.
   for (size_t v = 0; v < r.viewNames.size() && v < r.xrayCorrelation.size(); ++v)
@@ -339,6 +348,11 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames);
   r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames);
   r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames);
+  if (f.Has("edge_distance_mm")) // absent in records written before it
+  {
+    r.edgeDistanceMM = f.PerViewNumbers("edge_distance_mm", r.viewNames);
+    r.edgeDistanceShiftedMM = f.PerViewNumbers("edge_distance_moved_3mm", r.viewNames);
+  }
   if (f.Has("ct_end_faces")) // absent when the coverage mask was off
     for (const std::string& name : r.viewNames)
     {

@@ -60,6 +60,9 @@ struct RegistrationRecord
    *  attenuation, as log images); written, not read back. */
   std::vector<double> xrayCorrelation;
   std::vector<double> halvesApartMM; ///< per view; written, not read back
+  /** Per view: StereoRegistrationResult::edgeDistanceMM and edgeDistanceShiftedMM (empty in
+   *  records written before them). */
+  std::vector<double> edgeDistanceMM, edgeDistanceShiftedMM;
   double peakMargin = 0.0;
   std::array<double, 12> peakLeads{}; ///< StereoRegistrationResult::peakLeads; written, not read back
   std::vector<RegistrationStage> stages;

@@ -1,6 +1,7 @@
 #include "xpStereoRegistration.h"
 
 #include "xpCTCoverage.h"
+#include "xpEdgeAgreement.h"
 #include "xpError.h"
 #include "xpPoseOptimizer.h"
 #include "xpQualityGate.h"
@@ -415,6 +416,27 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
 
 /** Step 4b: what each view says about the result: the information its final DRR explains, the
  *  anatomy the CT leaves uncovered, and how far its own 2D registration would still move. */
+/** How far the DRR's edges move for the edge measure's chance level (mm at the isocentre). */
+constexpr double EdgeShiftMM = 3.0;
+
+/** Step 4c: the DRR's edges against the X-ray's at the result, at full size over the held-out
+ *  check's region (the ROI, the CT's coverage and its shadow; xpEdgeAgreement.h), both as
+ *  equalised levels. Not a gate check: a figure to read beside the overlay. */
+void MeasureEdges(StereoSimilarity& atFullSize, const Pose& pose, const Eigen::Vector3d& isocenter, StereoRegistrationResult& result)
+{
+  atFullSize.Evaluate(pose);
+  for (size_t v = 0; v < atFullSize.Views().size(); ++v)
+  {
+    const RegistrationView& item = atFullSize.Views()[v];
+    const double mmPerPixel = item.view.pixelSpacing[0] * (item.view.source - isocenter).norm() / item.view.SourceToPanelDistance();
+    const int shift = std::max(1, static_cast<int>(std::lround(EdgeShiftMM / mmPerPixel)));
+    const EdgeAgreement edges =
+      MeasureEdgeAgreement(atFullSize.XRayLevels(v), atFullSize.LastDRRLevels(v), item.mask, item.view.Columns(), item.view.Rows(), shift);
+    result.edgeDistanceMM.push_back(edges.medianPixels < 0.0 ? -1.0 : edges.medianPixels * mmPerPixel);
+    result.edgeDistanceShiftedMM.push_back(edges.shiftedMedianPixels < 0.0 ? -1.0 : edges.shiftedMedianPixels * mmPerPixel);
+  }
+}
+
 ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uint16_t>& openFieldBright, const Eigen::Vector3d& isocenter,
   const StereoRegistrationSettings& settings, JointHistogram& histogram)
 {
@@ -829,6 +851,12 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     };
     MeasureLandscape(objective, heldOut, fineResult.pose,
       fineResult.value, settings, result);
+    // Equalised levels on both sides: the DRR's transmission at 12 bits is quantised where a
+    // thick body lets little through, and its steps would be edges.
+    StereoSimilarity atFullSize(volume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { true, 0.0 });
+    atFullSize.SetCostSink(&cost);
+    MeasureEdges(atFullSize, fineResult.pose, isocenter, result);
+    result.drrCount += atFullSize.RenderedDRRs();
   }
   EndStage(result, stageStart);
   result.objective = fine.Evaluate(fineResult.pose);

@@ -170,6 +170,10 @@ struct StereoRegistrationResult
   std::vector<double> viewResidualMM;    ///< per view: its own 2D registration's remaining shift (mm at the isocentre)
   std::vector<double> halvesApartMM;     ///< per view: its halves' 2D registrations apart (mm at the isocentre)
   std::vector<double> validFraction;     ///< of each mask
+  /** Per view: the median distance from the DRR's edges at the result to the X-ray's nearest edge,
+   *  within the held-out region (mm at the isocentre; -1 where either has none), and the same
+   *  with the DRR's edges moved EdgeShiftMM: the chance level (xpEdgeAgreement.h). */
+  std::vector<double> edgeDistanceMM, edgeDistanceShiftedMM;
   /** Per view: correlation of the X-ray's ranks with the DRR at the start pose, and whether the
    *  X-ray was taken as bright = attenuation (log, processed) and turned over for that. */
   std::vector<double> xrayCorrelation;
@@ -207,6 +211,12 @@ struct RegistrationProgress
 using RegistrationObserver = std::function<void(const RegistrationProgress&)>;
 
 /**
+ * Whether the volume is a bone cut out of a CT: the median HU of its outer surface (non-air
+ * voxels beside air) above 300; a body's surface is skin, near 0 HU.
+ */
+VTKXPREGISTRATION_EXPORT bool OuterSurfaceIsBone(const AttenuationVolume& volume);
+
+/**
  * Registers a CT to stereo X-rays. `views` carry the X-rays (any bit depth, row 0 first) and, in
  * `mask`, the user ROIs (empty = whole image). Misalignments act about `isocenter` after
  * `plannedCTToRoom`. `observer`, when set, hears of every evaluation. The steps: pre-alignment
@@ -214,13 +224,7 @@ using RegistrationObserver = std::function<void(const RegistrationProgress&)>;
  * the refinement of its ends and the quality gate (xpQualityGate.h). Throws xp::InputError when
  * a mask leaves nothing to register or a gate limit is invalid.
  */
-VTKXPREGISTRATION_EXPORT /**
- * Whether the volume is a bone cut out of a CT: the median HU of its outer surface (non-air
- * voxels beside air) above 300; a body's surface is skin, near 0 HU.
- */
-VTKXPREGISTRATION_EXPORT bool OuterSurfaceIsBone(const AttenuationVolume& volume);
-
-StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume,
+VTKXPREGISTRATION_EXPORT StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
   const StereoRegistrationSettings& settings = {}, const RegistrationObserver& observer = {});
 

@@ -150,10 +150,13 @@ void WriteReport(const ReportContent& content, const std::string& directory)
        << PoseRow("misalignment of the patient", content.misalignment) << PoseRow("couch correction", content.correction)
        << "</table>\n<p>Convention: " << Html(content.convention) << ". The correction is the inverse of the misalignment.</p>\n";
   html << "<h2>Similarity and effort</h2>\n<table><tr><th>view</th><th>MI (nats)</th><th>explained MI / H(X-ray)</th>"
-       << "<th>mask valid fraction</th></tr>\n";
+       << "<th>mask valid fraction</th><th>DRR edges to the X-ray's (mm at the isocentre)</th>"
+       << "<th>the same, DRR moved 3 mm</th></tr>\n";
+  const auto edgeCell = [](double mm) { return mm < 0.0 ? std::string("-") : Fixed(mm, 2); };
   for (const ReportView& v : content.views)
     html << "<tr><th>" << Html(v.name) << "</th><td>" << Fixed(v.similarity, 4) << "</td><td>" << Fixed(v.explained, 3) << "</td><td>"
-         << Fixed(v.validFraction, 3) << "</td></tr>\n";
+         << Fixed(v.validFraction, 3) << "</td><td>" << edgeCell(v.edgeDistanceMM) << "</td><td>"
+         << edgeCell(v.edgeDistanceMovedMM) << "</td></tr>\n";
   html << "</table>\n<table><tr><th>objective</th><td>" << Fixed(content.objective, 4) << "</td></tr><tr><th>DRRs rendered</th><td>"
        << content.drrCount << "</td></tr><tr><th>6-DOF evaluations</th><td>" << content.evaluations << "</td></tr>\n";
   for (const auto& [stage, seconds] : content.seconds)
@@ -199,7 +202,8 @@ void WriteReport(const ReportContent& content, const std::string& directory)
   canvas::Text(header, "misalignment:      " + PoseLine(content.misalignment), cv::Point(12, 98), 0.95, cv::Scalar(60, 60, 60));
   std::string facts;
   for (const ReportView& v : content.views)
-    facts += v.name + ": MI " + Fixed(v.similarity, 3) + ", valid " + Fixed(100 * v.validFraction, 0) + " %   ";
+    facts += v.name + ": MI " + Fixed(v.similarity, 3) + ", valid " + Fixed(100 * v.validFraction, 0) + " %" +
+      (v.edgeDistanceMM >= 0.0 ? ", edges " + Fixed(v.edgeDistanceMM, 2) + " mm (moved " + Fixed(v.edgeDistanceMovedMM, 2) + ")" : "") + "   ";
   double total = 0.0;
   for (const auto& stage : content.seconds)
     total = stage.first == "total" ? stage.second : total;

@@ -35,6 +35,9 @@ struct ReportView
   double similarity = 0.0;         ///< MI at the result (nats)
   double explained = 0.0;          ///< MI / H(X-ray)
   double validFraction = 1.0;
+  /** The median distance (mm at the isocentre) from the final DRR's edges to the X-ray's, and
+   *  with the DRR moved 3 mm; -1: not measured (xpEdgeAgreement.h). */
+  double edgeDistanceMM = -1.0, edgeDistanceMovedMM = -1.0;
 };
 
 struct ReportContent

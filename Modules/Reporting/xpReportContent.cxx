@@ -61,6 +61,11 @@ ReportView ReportViewOf(const RegistrationRecord& record, size_t index, const Re
   v.similarity = record.similarity.at(index);
   v.explained = record.explained.at(index);
   v.validFraction = record.validFraction.at(index);
+  if (index < record.edgeDistanceMM.size())
+  {
+    v.edgeDistanceMM = record.edgeDistanceMM[index];
+    v.edgeDistanceMovedMM = record.edgeDistanceShiftedMM.at(index);
+  }
   return v;
 }
 

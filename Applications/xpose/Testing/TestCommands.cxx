@@ -443,7 +443,8 @@ TEST(Commands, TrackRegistersFrameAfterFrame)
   std::string header, row;
   std::getline(csv, header);
   EXPECT_EQ(header, "frame,xray_a,xray_b,status,tx_mm,ty_mm,tz_mm,pitch_deg,roll_deg,yaw_deg,uncertainty_tx_mm,"
-                    "uncertainty_ty_mm,uncertainty_tz_mm,uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s");
+                    "uncertainty_ty_mm,uncertainty_tz_mm,uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s,"
+                    "edge_distance_a_mm,edge_distance_moved_a_mm,edge_distance_b_mm,edge_distance_moved_b_mm");
   int rows = 0;
   while (std::getline(csv, row))
   {
@@ -451,8 +452,12 @@ TEST(Commands, TrackRegistersFrameAfterFrame)
     std::stringstream in(row);
     for (std::string cell; std::getline(in, cell, ',');)
       cells.push_back(cell);
-    ASSERT_EQ(cells.size(), 17u) << row;
+    ASSERT_EQ(cells.size(), 21u) << row;
     EXPECT_EQ(cells[3], "ok") << row;
+    // Each view's DRR edges lie on the X-ray's, closer than when moved 3 mm.
+    EXPECT_LT(std::stod(cells[17]), std::stod(cells[18])) << row;
+    EXPECT_LT(std::stod(cells[19]), std::stod(cells[20])) << row;
+    EXPECT_GE(std::stod(cells[17]), 0.0) << row;
     const xp::Pose truth = xp::Pose::Parse(truths[rows], "truth");
     EXPECT_NEAR(std::stod(cells[4]), truth.translation[0], 0.5) << row;
     EXPECT_NEAR(std::stod(cells[6]), truth.translation[2], 0.5) << row;
