@@ -156,6 +156,13 @@ struct ReportOptions
   std::string outputDirectory;      ///< default: "report" beside result.json
 };
 
+/** Two volumes registered apart to the same X-rays (two bones of one frame), frame by frame. */
+struct RelativeOptions
+{
+  std::vector<std::string> reference; ///< result.json per frame: the bone the other is given in
+  std::vector<std::string> moving;    ///< result.json per frame, as many
+};
+
 struct EvaluateOptions
 {
   std::string ct;
@@ -219,6 +226,9 @@ int RunSimulate(const SimulateOptions& options);
 int RunRegister(const RegisterOptions& options);
 int RunEvaluate(const EvaluateOptions& options);
 int RunReport(const ReportOptions& options);
+/** Prints, per frame, the moving volume's pose in the reference volume's coordinates (both
+ *  from their result.json's volume_to_room) and its change from the first frame. */
+int RunRelative(const RelativeOptions& options);
 /** Registers frame after frame, each from the previous frame's result (the first from
  *  --initial-pose, the global search or the planned set-up); writes poses.csv and poses.json.
  *  ExitOk when every frame is ok, ExitRegistrationFailed when one is not. */

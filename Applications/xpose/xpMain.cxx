@@ -332,6 +332,13 @@ int main(int argc, char** argv)
   CLI::App* trackCommand = AddTrackCommand(app, track);
   xp::ReportOptions report;
   CLI::App* reportCommand = AddReportCommand(app, report);
+  xp::RelativeOptions relative;
+  CLI::App* relativeCommand = app.add_subcommand("relative",
+    "One volume's pose in another's coordinates, frame by frame, from two registrations to the same X-rays (two bones)");
+  relativeCommand->add_option("--reference", relative.reference, "result.json per frame of the reference volume (the radius)")
+    ->required();
+  relativeCommand->add_option("--moving", relative.moving, "result.json per frame of the other volume (the ulna), as many")
+    ->required();
   xp::EvaluateOptions evaluate;
   CLI::App* evaluateCommand = AddEvaluateCommand(app, evaluate);
   try
@@ -345,6 +352,8 @@ int main(int argc, char** argv)
   }
   if (reportCommand->parsed())
     return xp::GuardedRun("report", [&] { return xp::RunReport(report); });
+  if (relativeCommand->parsed())
+    return xp::GuardedRun("relative", [&] { return xp::RunRelative(relative); });
   if (evaluateCommand->parsed())
     return xp::GuardedRun("evaluate", [&] { return xp::RunEvaluate(evaluate); });
   if (registerCommand->parsed())

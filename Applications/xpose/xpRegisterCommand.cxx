@@ -479,6 +479,8 @@ int RunRegister(const RegisterOptions& options)
   record.readSeconds = readSeconds;
   record.totalSeconds = Since(start);
   record.inputs = RecordedInputs(options);
+  record.volumeToRoom = MisalignedCTToRoom(inputs.planned, result.misalignment, inputs.setup.patient.roomIsocenter);
+  record.volumeCenter = ImageCenter(inputs.setup.ct.image);
   WriteOutputs(registration, record, inputs.views, options);
   PrintResult(result, record.totalSeconds, options.outputDirectory);
   if (!options.reportDirectory.empty())

@@ -257,6 +257,19 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     root["held_out_leads"][axes[a]].append(r.peakLeads[2 * a + 1]);
   }
   root["halves_apart_mm"] = PerView(r.viewNames, r.halvesApartMM);
+  if (r.volumeToRoom)
+  {
+    // Rows of the 4x4 matrix from the volume's coordinates to Room mm at the result.
+    for (int row = 0; row < 4; ++row)
+    {
+      Json::Value line(Json::arrayValue);
+      for (int column = 0; column < 4; ++column)
+        line.append(r.volumeToRoom->matrix()(row, column));
+      root["volume_to_room"].append(line);
+    }
+    for (int k = 0; k < 3; ++k)
+      root["volume_center"].append(r.volumeCenter[k]);
+  }
   // The median distance (mm at the isocentre) from the DRR's edges at the result to the X-ray's,
   // and with the DRR moved 3 mm: what the X-ray's edges alone would give (-1: no edges).
   if (!r.edgeDistanceMM.empty())
@@ -348,6 +361,33 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames);
   r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames);
   r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames);
+  if (f.Has("volume_to_room")) // absent in records written before it
+  {
+    const Json::Value& rows = f.Array("volume_to_room");
+    Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+    bool shaped = rows.size() == 4;
+    for (Json::ArrayIndex row = 0; shaped && row < 4; ++row)
+    {
+      shaped = rows[row].isArray() && rows[row].size() == 4;
+      for (Json::ArrayIndex column = 0; shaped && column < 4; ++column)
+      {
+        shaped = rows[row][column].isNumeric();
+        if (shaped)
+          m(row, column) = rows[row][column].asDouble();
+      }
+    }
+    const Eigen::Matrix3d rotation = m.topLeftCorner<3, 3>();
+    if (!shaped || !(rotation.transpose() * rotation).isApprox(Eigen::Matrix3d::Identity(), 1e-6) ||
+      !m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
+      f.Fail("volume_to_room", "must be a rigid 4x4 matrix (4 rows of 4 numbers)");
+    Eigen::Isometry3d placed = Eigen::Isometry3d::Identity();
+    placed.matrix() = m;
+    r.volumeToRoom = placed;
+    const std::vector<double> center = f.Numbers("volume_center");
+    if (center.size() != 3)
+      f.Fail("volume_center", "must hold 3 numbers");
+    r.volumeCenter = Eigen::Vector3d(center[0], center[1], center[2]);
+  }
   if (f.Has("edge_distance_mm")) // absent in records written before it
   {
     r.edgeDistanceMM = f.PerViewNumbers("edge_distance_mm", r.viewNames);

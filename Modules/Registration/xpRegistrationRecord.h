@@ -68,6 +68,12 @@ struct RegistrationRecord
   std::vector<RegistrationStage> stages;
   std::vector<double> objectiveTrace;
   std::optional<RegistrationRecordInputs> inputs; ///< absent when no command wrote the record
+  /** The volume's own coordinates (a DICOM CT's patient LPS mm; a TIFF volume's voxel grid in mm,
+   *  its first voxel at 0) to Room mm at the result, and the volume's centre in them: what places
+   *  two bones registered apart in one frame (`xpose relative`). Absent when no command wrote
+   *  the record, or in records written before them. */
+  std::optional<Eigen::Isometry3d> volumeToRoom;
+  Eigen::Vector3d volumeCenter = Eigen::Vector3d::Zero();
 
   std::vector<std::string> Reasons() const;
 };

@@ -473,6 +473,19 @@ TEST(Commands, TrackRegistersFrameAfterFrame)
   const std::string json = ReadText("cmd-track/poses.json");
   EXPECT_NE(json.find("\"start\" : \"planned set-up\""), std::string::npos) << json;
   EXPECT_NE(json.find("\"start\" : \"previous frame\""), std::string::npos) << json;
+  // Each frame's record places the CT in the room: the head moved between the two truths by
+  // what the two results say (1 mm along x, 1 along y, 0.5 along z, at the isocentre).
+  ASSERT_TRUE(first.volumeToRoom && second.volumeToRoom);
+  const Eigen::Vector3d firstCenter = *first.volumeToRoom * first.volumeCenter;
+  const Eigen::Vector3d secondCenter = *second.volumeToRoom * second.volumeCenter;
+  EXPECT_NEAR((secondCenter - firstCenter).x(), 1.0, 0.3);
+  EXPECT_NEAR((secondCenter - firstCenter).y(), 1.0, 0.3);
+  xp::RelativeOptions relative;
+  relative.reference = { "cmd-track/frame-0001/result.json", "cmd-track/frame-0002/result.json" };
+  relative.moving = relative.reference;
+  EXPECT_EQ(xp::GuardedRun("relative", [&] { return xp::RunRelative(relative); }), xp::ExitOk);
+  relative.moving.pop_back();
+  EXPECT_EQ(xp::GuardedRun("relative", [&] { return xp::RunRelative(relative); }), xp::ExitBadInput);
 
   options.frames = { "cmd-track-1/xray_A.png", "cmd-track-2/xray_A.png,cmd-track-2/xray_B.png" };
   options.outputDirectory = "cmd-track-bad";

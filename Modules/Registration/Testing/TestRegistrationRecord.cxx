@@ -71,6 +71,43 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_FALSE(xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r").inputs.has_value());
 }
 
+TEST(RegistrationRecord, KeepsTheVolumesPlacementAndTheEdgeFigures)
+{
+  xp::RegistrationRecord written = FailedRecord();
+  Eigen::Isometry3d placed = Eigen::Isometry3d::Identity();
+  placed.rotate(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()));
+  placed.pretranslate(Eigen::Vector3d(115.0, -73.5, 12.25));
+  written.volumeToRoom = placed;
+  written.volumeCenter = Eigen::Vector3d(17.0, 13.5, 40.0);
+  written.edgeDistanceMM = { 0.65, 1.3 };
+  written.edgeDistanceShiftedMM = { 1.96, 1.46 };
+  const xp::RegistrationRecord read = xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(written), "result.json");
+  ASSERT_TRUE(read.volumeToRoom.has_value());
+  EXPECT_TRUE(read.volumeToRoom->matrix().isApprox(placed.matrix(), 1e-9));
+  EXPECT_TRUE(read.volumeCenter.isApprox(written.volumeCenter));
+  EXPECT_EQ(read.edgeDistanceMM, written.edgeDistanceMM);
+  EXPECT_EQ(read.edgeDistanceShiftedMM, written.edgeDistanceShiftedMM);
+  // Older records have neither.
+  const xp::RegistrationRecord older = xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r");
+  EXPECT_FALSE(older.volumeToRoom.has_value());
+  EXPECT_TRUE(older.edgeDistanceMM.empty());
+  // A placement that is no rigid motion is refused, naming the field.
+  std::string text = xp::RegistrationRecordJSON(written);
+  const size_t at = text.find("\"volume_to_room\"");
+  ASSERT_NE(at, std::string::npos);
+  const size_t first = text.find_first_of("0123456789-", text.find('[', text.find('[', at) + 1));
+  text.insert(first, "2");
+  try
+  {
+    xp::ParseRegistrationRecord(text, "frame.json");
+    FAIL() << "a scaled placement was accepted";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("volume_to_room"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RegistrationRecord, WritesEachHeldOutLeadUnderItsAxisAndSide)
 {
   xp::StereoRegistrationResult result;
