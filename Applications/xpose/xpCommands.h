@@ -179,6 +179,7 @@ struct EvaluateOptions
   bool removeTable = true;          ///< register against the CT without its table
   /** Registration steps switched off, to measure what each does: levels, high-pass, coverage. */
   std::vector<std::string> registrationOff;
+  std::string optimizer = "nelder-mead"; ///< as register's --optimizer: SEARCH or SEARCH/REFINEMENT
   StereoRegistrationSettings settings; ///< each approach's, but for the entropy mask
   std::vector<std::string> approaches{ "A", "B" };
   double noise = 30.0;              ///< quantum noise of the noisy scenarios, grey levels

@@ -54,6 +54,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"xray_ct\": \"" << (o.xrayCT.empty() ? "" : CanonicalPath(o.xrayCT)) << "\",\n  \"xray_stretch\": \""
        << o.xrayStretch << "\""
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
+       << ",\n  \"optimizer\": \"" << o.optimizer << "\""
        << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
        << ",\n  \"coverage_min_excess\": " << o.settings.coverageMinExcess
        << ",\n  \"bins\": " << o.settings.bins << ",\n  \"max_evaluations\": " << o.settings.maxEvaluations
@@ -91,6 +92,7 @@ StereoRegistrationSettings RegistrationSettingsOf(const EvaluateOptions& options
 {
   CheckRegistrationSettings(options.settings);
   StereoRegistrationSettings settings = options.settings;
+  SetOptimizers(options.optimizer, settings, "--optimizer");
   for (const std::string& step : options.registrationOff)
   {
     if (step == "levels")

@@ -276,6 +276,9 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
   evaluateCommand->add_option("--without", options.without,
     "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
   evaluateCommand->add_flag("!--keep-table", options.removeTable, "Register against the CT with its table");
+  evaluateCommand->add_option("--optimizer", options.optimizer,
+    "Optimiser of the 6-DOF stages, as register's: nelder-mead, sbplx, bobyqa, cobyla or SEARCH/REFINEMENT")
+    ->capture_default_str();
   evaluateCommand->add_option("--registration-off", options.registrationOff,
     "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage, median, "
     "entropy-over-coverage (the entropy mask's bar over the whole X-ray)")
