@@ -19,8 +19,8 @@ out=eval/wrist
 mkdir -p "$out"
 "$xpose" geometry --camera-calibration "$W/xr_calib_wrist_cam01.txt" "$W/xr_calib_wrist_cam02.txt" --pixel-spacing 0.2 \
   --out "$out/wrist.json" | head -1
-echo "| bone | frame | found from nothing | status | starts ok | spread of ok ends tx ty tz (mm) | pitch roll yaw (deg) | ends near the median: translation / pose | median time (s) |"
-echo "|---|---|---|---|---|---|---|---|---|"
+echo "| bone | frame | found from nothing | status | DRR edges to the X-ray's, A / B (moved 3 mm) (mm) | starts ok | spread of ok ends tx ty tz (mm) | pitch roll yaw (deg) | ends near the median: translation / pose | median time (s) |"
+echo "|---|---|---|---|---|---|---|---|---|---|"
 for bone in $bones; do
   for frame in $frames; do
     common=(--ct "$W/${bone}_dcm_cropped.tif" --voxel-size 0.39625,0.39625,0.625 --geometry "$out/wrist.json"
@@ -30,6 +30,8 @@ for bone in $bones; do
     "$xpose" register "${common[@]}" --out-dir "$dir/found" --report "$dir/found/report" > "$dir.log" 2>&1 || true
     found=$(grep '^misalignment:' "$dir.log" | sed 's/misalignment: t = (\(.*\)) mm, pitch \(.*\), roll \(.*\), yaw \(.*\) deg/\1,\2,\3,\4/; s/ //g')
     status=$(grep '^status:' "$dir.log" | awk '{print $2}')
+    # "edges, view A: the DRR's lie 1.31 mm from the X-ray's (1.46 mm with the DRR moved 3 mm)"
+    edges=$(grep '^edges, view' "$dir.log" | sed "s/.*lie \([0-9.-]*\) mm.*(\([0-9.-]*\) mm.*/\1 (\2)/" | paste -sd/ | sed 's#/# / #g')
     : > "$dir.ends"
     for ((s = 1; s <= starts; s++)); do
       start=$(awk -v seed="$s" -v p="$found" 'BEGIN { srand(seed); n = split(p, v, ",");
@@ -43,9 +45,9 @@ for bone in $bones; do
       fi
       grep -o 'total [0-9.]* s' "$dir/start-$s.log" | awk '{print $2}' >> "$dir.times" || true
     done
-    awk -F, -v bone="$bone" -v frame="$frame" -v found="$found" -v status="$status" -v starts="$starts" '
+    awk -F, -v bone="$bone" -v frame="$frame" -v found="$found" -v status="$status" -v edges="$edges" -v starts="$starts" '
       { n++; for (i = 1; i <= 6; i++) { if (n == 1 || $i < lo[i]) lo[i] = $i; if (n == 1 || $i > hi[i]) hi[i] = $i } }
-      END { printf "| %s | %s | %s | %s | %d/%d | ", bone, frame, found, status, n, starts
+      END { printf "| %s | %s | %s | %s | %s | %d/%d | ", bone, frame, found, status, edges, n, starts
         if (n) printf "%.2f %.2f %.2f | %.2f %.2f %.2f |", hi[1]-lo[1], hi[2]-lo[2], hi[3]-lo[3], hi[4]-lo[4], hi[5]-lo[5], hi[6]-lo[6]
         else printf "- | - |" }' "$dir.ends"
     touch "$dir.all"
@@ -58,3 +60,15 @@ for bone in $bones; do
     sort -n "$dir.times" | awk '{ t[NR] = $1 } END { printf " %.1f |\n", NR ? t[int((NR + 1) / 2)] : 0 }'
   done
 done
+# The radius and the ulna as found from nothing in each frame: the ulna's pose in the radius's
+# coordinates, whose change between frames a reader can judge (the two bones turn about each
+# other in pronation, and neither shortens).
+if [[ " $bones " == *" rad "* && " $bones " == *" uln "* ]]; then
+  reference=() moving=()
+  for frame in $frames; do
+    reference+=("$out/rad-$frame/found/result.json")
+    moving+=("$out/uln-$frame/found/result.json")
+  done
+  echo
+  "$xpose" relative --reference "${reference[@]}" --moving "${moving[@]}" || true
+fi
