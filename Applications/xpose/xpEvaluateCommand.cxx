@@ -103,8 +103,10 @@ StereoRegistrationSettings RegistrationSettingsOf(const EvaluateOptions& options
       settings.coverageMask = false;
     else if (step == "median")
       settings.medianFilter = false;
+    else if (step == "bone-cuts")
+      settings.leaveOutBoneCuts = false;
     else
-      throw InputError("--registration-off", "expected levels, high-pass, coverage or median, got '" + step + "'");
+      throw InputError("--registration-off", "expected levels, high-pass, coverage, median or bone-cuts, got '" + step + "'");
   }
   return settings;
 }

@@ -215,6 +215,9 @@ void PrintStages(const StereoRegistrationResult& result, const std::vector<Regis
     std::printf("CT end faces, view %s: rays beyond the first slice %s (excess %.3f), beyond the last %s (excess %.3f)\n",
       views[v].view.name.c_str(), named(0), faces.excess[0], named(1), faces.excess[1]);
   }
+  if (result.boneOnly)
+    std::printf("bone: %lld voxels on the faces where the crop cut it%s\n", result.cutFaceVoxels,
+      result.cutFaceVoxels > 0 ? " (their shadow left out)" : "");
   std::printf("fine 6-DOF: %s, %d evaluations (%.2f s)\n", result.misalignment.ToString().c_str(), result.evaluations,
     result.fineSeconds);
   for (size_t v = 0; v < result.edgeDistanceMM.size() && v < views.size(); ++v)

@@ -1,5 +1,6 @@
 #include "xpGlobalSearch.h"
 
+#include "xpBoneCut.h"
 #include "xpError.h"
 #include "xpImageLevels.h"
 #include "xpPoseOptimizer.h"
@@ -126,6 +127,26 @@ std::vector<GlobalCandidate> Distinct(const std::vector<GlobalCandidate>& sorted
   return distinct;
 }
 
+/** The bone's cut faces' shadow and this much around it (mm on the panel) leave the template:
+ *  beyond the cut the X-ray shows the bone running on (xpBoneCut.h). */
+constexpr double CutMarginMM = 5.0;
+
+/** Clears `shadow` (CV_8U, view-sized, or a window of it whose top-left pixel is `offset`) about
+ *  the projections of `cutPoints` (CT mm) placed by `ctToRoom`. */
+void LeaveOutCuts(cv::Mat& shadow, const XRayView& view, const std::vector<Eigen::Vector3d>& cutPoints,
+  const Eigen::Isometry3d& ctToRoom)
+{
+  if (cutPoints.empty())
+    return;
+  const int radius = std::max(1, static_cast<int>(std::lround(CutMarginMM / std::min(view.pixelSpacing[0], view.pixelSpacing[1]))));
+  for (const Eigen::Vector3d& point : cutPoints)
+  {
+    const Eigen::Vector2d at = view.Project(ctToRoom * point);
+    cv::circle(shadow, cv::Point(static_cast<int>(std::lround(at.x())), static_cast<int>(std::lround(at.y()))), radius,
+      cv::Scalar(0), cv::FILLED);
+  }
+}
+
 /**
  * The search's score of a pose: per view, the correlation of the high-passed X-ray with the
  * high-passed DRR over the volume's shadow and a rim of 2 pixels (the template of the grid
@@ -136,8 +157,9 @@ class TwoViewCorrelation
 {
 public:
   TwoViewCorrelation(const AttenuationVolume& volume, const Eigen::Isometry3d& planned, const Eigen::Vector3d& isocenter,
-    const std::vector<XRayView>& views, const std::vector<WorkingXRay>& xrays, int polarity)
-    : Volume(volume), Planned(planned), Isocenter(isocenter), Views(views), XRays(xrays), Polarity(polarity)
+    const std::vector<XRayView>& views, const std::vector<WorkingXRay>& xrays, int polarity,
+    const std::vector<Eigen::Vector3d>& cutPoints)
+    : Volume(volume), Planned(planned), Isocenter(isocenter), Views(views), XRays(xrays), Polarity(polarity), CutPoints(cutPoints)
   {
   }
 
@@ -148,8 +170,8 @@ public:
     {
       const XRayView& view = this->Views[v];
       cv::Mat integrals(view.Rows(), view.Columns(), CV_32F, cv::Scalar(0.0f));
-      RenderLineIntegrals(this->Volume, MisalignedCTToRoom(this->Planned, pose, this->Isocenter), view.source,
-        DetectorGrid::TopRowFirst(view), nullptr, integrals.ptr<float>());
+      const Eigen::Isometry3d ctToRoom = MisalignedCTToRoom(this->Planned, pose, this->Isocenter);
+      RenderLineIntegrals(this->Volume, ctToRoom, view.source, DetectorGrid::TopRowFirst(view), nullptr, integrals.ptr<float>());
       cv::Mat shadow = integrals > 0.0f;
       const int pixels = cv::countNonZero(shadow);
       if (pixels < 16)
@@ -158,6 +180,9 @@ public:
       if (cv::countNonZero(body & shadow) < MinWithinBody * pixels)
         return -1.0;
       cv::dilate(shadow, shadow, cv::Mat(), cv::Point(-1, -1), 2);
+      LeaveOutCuts(shadow, view, this->CutPoints, ctToRoom);
+      if (cv::countNonZero(shadow) < 16)
+        return -1.0;
       const cv::Mat structure = HighPass(integrals);
       const cv::Mat& xray = this->XRays[v].structure;
       cv::Scalar meanD, sdD, meanX, sdX;
@@ -205,6 +230,7 @@ private:
   const std::vector<XRayView>& Views;
   const std::vector<WorkingXRay>& XRays;
   int Polarity;
+  const std::vector<Eigen::Vector3d>& CutPoints;
 };
 
 } // namespace
@@ -245,6 +271,7 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
   // The X-rays' polarity: the body is the side of the grey-level split that holds the structure
   // (the open field is flat); a dark body is raw transmission, and its bone is dark too.
   const int polarity = xrays[0].darkStructureRatio * xrays[1].darkStructureRatio > 1.0 ? 1 : 0;
+  const std::vector<Eigen::Vector3d> cutPoints = settings.leaveOutCuts ? CutFacePoints(volume) : std::vector<Eigen::Vector3d>();
   std::vector<GlobalCandidate> chosen;
   for (const Eigen::Matrix3d& rotation : OrientationGrid(settings.angleStepDegrees))
   {
@@ -278,8 +305,10 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
       xrays[v].body[polarity].convertTo(body, CV_32F);
       cv::matchTemplate(body, bone, withinBody[v], cv::TM_CCORR);
       withinBody[v] /= std::max(1.0, cv::sum(bone)[0]);
-      // The bone's shadow and a rim of 2 pixels: the bone against what surrounds it.
+      // The bone's shadow and a rim of 2 pixels: the bone against what surrounds it; not where
+      // the crop cut it.
       cv::dilate(shadow, shadow, cv::Mat(), cv::Point(-1, -1), 2);
+      LeaveOutCuts(shadow, view, cutPoints, ctToRoom);
       const cv::Mat structure = HighPass(integrals);
       cv::matchTemplate(xrays[v].structure, structure(padded), maps[v], cv::TM_CCOEFF_NORMED, shadow(padded));
       // Where the X-ray is flat under the template (outside the field) the correlation is 0/0.
@@ -325,7 +354,7 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
   std::sort(chosen.begin(), chosen.end(), [](const GlobalCandidate& x, const GlobalCandidate& y) { return x.score > y.score; });
   // The grid's best are half a step off at most: each is refined on the same correlation, the
   // pose now free, and the refined scores decide.
-  const TwoViewCorrelation correlation(volume, plannedCTToRoom, isocenter, small, xrays, polarity);
+  const TwoViewCorrelation correlation(volume, plannedCTToRoom, isocenter, small, xrays, polarity, cutPoints);
   std::vector<GlobalCandidate> refined;
   for (const GlobalCandidate& c : Distinct(chosen, settings.refined, 0.5 * settings.distinctMM, 0.5 * settings.distinctDegrees))
   {

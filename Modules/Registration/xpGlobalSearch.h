@@ -37,6 +37,9 @@ struct GlobalSearchSettings
   int candidates = 5;             ///< distinct refined poses returned
   /** Candidates closer than this (mm and degrees) are one. */
   double distinctMM = 10.0, distinctDegrees = 20.0;
+  /** The shadow of the faces where the crop cut the bone, and 5 mm about it, leave the templates
+   *  (xpBoneCut.h). */
+  bool leaveOutCuts = true;
 };
 
 struct GlobalCandidate

@@ -1,5 +1,6 @@
 #include "xpStereoRegistration.h"
 
+#include "xpBoneCut.h"
 #include "xpCTCoverage.h"
 #include "xpEdgeAgreement.h"
 #include "xpError.h"
@@ -155,6 +156,20 @@ void AndShadow(std::vector<RegistrationView>& views, const AttenuationVolume& vo
     else
       for (size_t i = 0; i < shadow.size(); ++i)
         item.mask[i] &= shadow[i];
+  }
+}
+
+/** AndShadow, then the pixels within the same margin of the shadow of the bone's cut faces left out
+ *  (xpBoneCut.h): there the X-ray shows the bone running on where its DRR ends. */
+void AndShadowLessCuts(std::vector<RegistrationView>& views, const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
+  double marginMM, const std::vector<Eigen::Vector3d>& cutPoints)
+{
+  AndShadow(views, volume, ctToRoom, marginMM);
+  for (RegistrationView& item : views)
+  {
+    LeaveOutAroundPoints(item.mask, item.view, cutPoints, ctToRoom, marginMM);
+    if (std::count(item.mask.begin(), item.mask.end(), 1) == 0)
+      throw InputError("view " + item.view.name, "the bone's cut ends leave nothing of its shadow to register");
   }
 }
 
@@ -677,11 +692,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
   result.start = requested.initialPose;
   std::vector<RegistrationView> shadowed;
+  const std::vector<Eigen::Vector3d> cutPoints =
+    result.boneOnly && settings.leaveOutBoneCuts ? CutFacePoints(volume) : std::vector<Eigen::Vector3d>();
+  result.cutFaceVoxels = static_cast<long long>(cutPoints.size());
   if (result.boneOnly)
   {
     shadowed = inputViews;
-    AndShadow(shadowed, coarseVolume, MisalignedCTToRoom(plannedCTToRoom, settings.initialPose, isocenter),
-      settings.boneShadowSearchMarginMM);
+    AndShadowLessCuts(shadowed, coarseVolume, MisalignedCTToRoom(plannedCTToRoom, settings.initialPose, isocenter),
+      settings.boneShadowSearchMarginMM, cutPoints);
   }
   const std::vector<RegistrationView>& startViews = result.boneOnly ? shadowed : inputViews;
   WorkingXRays working;
@@ -759,7 +777,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     }
   }
   if (result.boneOnly)
-    AndShadow(masked, volume, MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter), settings.boneShadowFineMarginMM);
+    AndShadowLessCuts(masked, volume, MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter),
+      settings.boneShadowFineMarginMM, cutPoints);
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
     { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
   fine.SetCostSink(&cost);
@@ -838,7 +857,10 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     // Where no ray meets the CT there is only what it does not hold: open field shaded by the
     // heel effect and scatter, a couch. Beyond the outline's margin that is no evidence about
     // the pose, and it flattened the peak of a rounded head along roll (Algorithms.md).
-    AndShadow(wholeViews, volume, resultCTToRoom, result.boneOnly ? settings.boneShadowFineMarginMM : settings.heldOutShadowMarginMM);
+    if (result.boneOnly)
+      AndShadowLessCuts(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM, cutPoints);
+    else
+      AndShadow(wholeViews, volume, resultCTToRoom, settings.heldOutShadowMarginMM);
     StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
       { settings.equalizedLevels, settings.heldOutHighPassMM, correlationMM });
     heldOut.SetCostSink(&cost);

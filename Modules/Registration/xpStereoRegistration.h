@@ -42,6 +42,9 @@ struct StereoRegistrationSettings
    *  bones that the X-ray shows around it are no part of it. */
   bool detectBoneOnly = true;
   double boneShadowSearchMarginMM = 15.0, boneShadowFineMarginMM = 5.0;
+  /** ... less the same margin about the shadow of the faces where the crop cut the bone
+   *  (xpBoneCut.h): the X-ray shows it running on there. */
+  bool leaveOutBoneCuts = true;
   /** A bone's 6-DOF stages maximise the correlation of both images' structure (less a low-pass
    *  of this sd, mm on the panel; xpStereoSimilarity.h), not MI; 0 = MI. */
   double boneCorrelationHighPassMM = 10.0;
@@ -158,6 +161,9 @@ struct StereoRegistrationResult
   Pose start;        ///< the settings' initial pose, where the search began
   /** The volume is a bone cut out of a CT (OuterSurfaceIsBone): only the bone's shadow is matched. */
   bool boneOnly = false;
+  /** With boneOnly: the voxels on the faces where the crop cut the bone (0: none cut, or
+   *  leaveOutBoneCuts off). */
+  long long cutFaceVoxels = 0;
   /** With boneOnly: the farthest end of the refinements restarted around the result. */
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0;
   Pose misalignment;
