@@ -281,7 +281,7 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
     ->capture_default_str();
   evaluateCommand->add_option("--registration-off", options.registrationOff,
     "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage, median, "
-    "entropy-over-coverage (the entropy mask's bar over the whole X-ray)")
+    "bone-cuts (a cut bone's ends kept in its masks)")
     ->delimiter(',');
   AddMethodOptions(evaluateCommand, options.settings);
   AddGateOptions(evaluateCommand, options.settings);
