@@ -429,8 +429,6 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
   out.drrCount += heldOut.RenderedDRRs();
 }
 
-/** Step 4b: what each view says about the result: the information its final DRR explains, the
- *  anatomy the CT leaves uncovered, and how far its own 2D registration would still move. */
 /** How far the DRR's edges move for the edge measure's chance level (mm at the isocentre). */
 constexpr double EdgeShiftMM = 3.0;
 
@@ -452,6 +450,8 @@ void MeasureEdges(StereoSimilarity& atFullSize, const Pose& pose, const Eigen::V
   }
 }
 
+/** Step 4b: what each view says about the result: the information its final DRR explains, the
+ *  anatomy the CT leaves uncovered, and how far its own 2D registration would still move. */
 ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uint16_t>& openFieldBright, const Eigen::Vector3d& isocenter,
   const StereoRegistrationSettings& settings, JointHistogram& histogram)
 {
