@@ -119,7 +119,7 @@ std::string TrialCSVHeader()
     header += std::string(",error_") + axis;
   return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
                   "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
-                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,reasons";
+                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,edge_mm,edge_moved_mm,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -142,6 +142,13 @@ std::string TrialCSVRow(const TrialRecord& r)
       << r.peakMargin << ',' << r.uncertaintyMM << ',' << r.uncertaintyDegrees << ',' << r.halvesApartMM << ',';
   for (size_t k = 0; k < r.peakLeads.size(); ++k)
     row << (k ? " " : "") << r.peakLeads[k];
+  // Per view, space-separated (a registration that ended early has none).
+  for (const std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM })
+  {
+    row << ',';
+    for (size_t v = 0; v < perView->size(); ++v)
+      row << (v ? " " : "") << (*perView)[v];
+  }
   row << ',' << reasons;
   return row.str();
 }
@@ -211,6 +218,14 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       for (double& v : r.peakLeads)
         if (!(leads >> v))
           throw std::invalid_argument("peak_leads");
+      for (std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM })
+      {
+        std::istringstream values(f[i++]);
+        for (double v; values >> v;)
+          perView->push_back(v);
+        if (!values.eof())
+          throw std::invalid_argument("edge figures");
+      }
       r.reasons = f[i++];
       records.push_back(r);
     }

@@ -44,6 +44,9 @@ struct TrialRecord
   double peakMargin = 0.0, uncertaintyMM = 0.0, uncertaintyDegrees = 0.0;
   double halvesApartMM = 0.0; ///< the largest over views (xpQualityGate.h)
   std::array<double, 12> peakLeads{}; ///< each held-out neighbour's lead (StereoRegistrationResult::peakLeads)
+  /** Per view: the DRR's edges' median distance to the X-ray's, and with the DRR moved 3 mm
+   *  (StereoRegistrationResult::edgeDistanceMM, edgeDistanceShiftedMM). */
+  std::vector<double> edgeMM, edgeMovedMM;
   std::string reasons;               ///< the gate's reasons, ';'-separated
 };
 

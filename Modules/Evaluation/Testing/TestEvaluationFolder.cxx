@@ -63,16 +63,20 @@ TEST(EvaluationFolder, ResumesWithTheSameSettingsAndRefusesOthers)
   EXPECT_EQ(Text("eval-folder/evaluation.json"), "{ \"seed\": 1 }\n"); // not overwritten by the refused run
 }
 
-TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLead)
+TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadAndEdgeFigure)
 {
   xp::TrialRecord written = Row(1, "B");
   for (int k = 0; k < 12; ++k)
     written.peakLeads[k] = (k % 2 ? 1.0 : -1.0) * (k + 1) / 100.0;
+  written.edgeMM = { 0.25, 1.5 };
+  written.edgeMovedMM = { 1.75, -1.0 };
   ASSERT_EQ(std::system("rm -rf eval-leads && mkdir eval-leads"), 0);
   std::ofstream("eval-leads/trials.csv") << xp::TrialCSVHeader() << '\n' << xp::TrialCSVRow(written) << '\n';
   const std::vector<xp::TrialRecord> read = xp::ReadTrialCSV("eval-leads/trials.csv");
   ASSERT_EQ(read.size(), 1u);
   EXPECT_EQ(read[0].peakLeads, written.peakLeads);
+  EXPECT_EQ(read[0].edgeMM, written.edgeMM);
+  EXPECT_EQ(read[0].edgeMovedMM, written.edgeMovedMM);
   EXPECT_EQ(read[0].reasons, written.reasons);
 }
 
