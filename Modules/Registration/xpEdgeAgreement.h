@@ -4,8 +4,10 @@
  *        can check against the overlay, and one that a consistent but wrong optimum does not pass.
  *
  * Both images are smoothed a little, scaled to 8 bits over their own range within the region, and
- * given to Canny with thresholds at fixed percentiles of their gradient magnitude (each image its
- * own: a noise-free DRR and a noisy X-ray have gradients of different sizes). For each DRR edge
+ * given to Canny: the DRR with its upper threshold at the 75th percentile of its non-zero gradient
+ * magnitudes, the X-ray at whichever of a few percentiles gives about as many edge pixels as the
+ * DRR has (a noise-free DRR and a noisy X-ray have gradients of different sizes, and a noisy
+ * X-ray's weakest edges are noise). For each DRR edge
  * pixel inside the region (eroded, so that the region's border is no edge), the distance to the
  * nearest X-ray edge; the median of those distances is the measure. The same median with the DRR's
  * edges shifted by `shiftPixels` along the rows and along the columns (four shifts, the median of
