@@ -14,11 +14,10 @@ namespace
 {
 
 /** The volume's placement at the result, or an error naming the file. */
-Eigen::Isometry3d PlacementOf(const RegistrationRecord& record, const std::string& path, Eigen::Vector3d& center)
+Eigen::Isometry3d PlacementOf(const RegistrationRecord& record, const std::string& path)
 {
   if (!record.volumeToRoom)
     throw InputError(path, "has no volume_to_room (written by an older xpose register?)");
-  center = record.volumeCenter;
   return *record.volumeToRoom;
 }
 
@@ -44,12 +43,11 @@ int RunRelative(const RelativeOptions& options)
   {
     const RegistrationRecord reference = ReadRegistrationRecord(options.reference[f]);
     const RegistrationRecord moving = ReadRegistrationRecord(options.moving[f]);
-    Eigen::Vector3d referenceCenter, movingCenter;
-    const Eigen::Isometry3d referenceToRoom = PlacementOf(reference, options.reference[f], referenceCenter);
-    const Eigen::Isometry3d movingToRoom = PlacementOf(moving, options.moving[f], movingCenter);
+    const Eigen::Isometry3d referenceToRoom = PlacementOf(reference, options.reference[f]);
+    const Eigen::Isometry3d movingToRoom = PlacementOf(moving, options.moving[f]);
     const Eigen::Isometry3d relative = referenceToRoom.inverse() * movingToRoom;
     const Pose angles = Pose::FromTransform(relative, Eigen::Vector3d::Zero());
-    const Eigen::Vector3d center = relative * movingCenter;
+    const Eigen::Vector3d center = relative * moving.volumeCenter;
     if (f == 0)
     {
       first = relative;

@@ -2,6 +2,8 @@
 
 #include "xpError.h"
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -63,40 +65,31 @@ std::vector<Eigen::Vector3d> CutFacePoints(const AttenuationVolume& volume)
   return points;
 }
 
-void LeaveOutAroundPoints(std::vector<uint8_t>& mask, const XRayView& view, const std::vector<Eigen::Vector3d>& points,
+void LeaveOutAroundPoints(uint8_t* mask, const XRayView& view, const std::vector<Eigen::Vector3d>& points,
   const Eigen::Isometry3d& ctToRoom, double radiusMM)
 {
-  const int columns = view.Columns(), rows = view.Rows();
-  if (mask.empty())
-    mask.assign(static_cast<size_t>(columns) * rows, 1);
-  if (mask.size() != static_cast<size_t>(columns) * rows)
-    throw InputError("view " + view.name, "the mask does not match the panel");
-  const double radius = radiusMM / std::min(view.pixelSpacing[0], view.pixelSpacing[1]);
-  const int reach = static_cast<int>(std::ceil(radius));
-  // Mark each projected point's pixel on a grid widened by the reach (points just beyond the
-  // panel still reach into it), then clear every pixel within the radius of a marked one.
-  const int wide = columns + 2 * reach, high = rows + 2 * reach;
-  std::vector<uint8_t> hit(static_cast<size_t>(wide) * high, 0);
+  if (points.empty())
+    return;
+  cv::Mat wrapped(view.Rows(), view.Columns(), CV_8U, mask);
+  const int radius = std::max(1, static_cast<int>(std::lround(radiusMM / std::min(view.pixelSpacing[0], view.pixelSpacing[1]))));
   for (const Eigen::Vector3d& point : points)
   {
     const Eigen::Vector2d at = view.Project(ctToRoom * point);
-    const long c = std::lround(at.x()) + reach, r = std::lround(at.y()) + reach;
-    if (c >= 0 && c < wide && r >= 0 && r < high)
-      hit[static_cast<size_t>(r) * wide + c] = 1;
+    if (std::isfinite(at.x()) && std::isfinite(at.y()) && std::abs(at.x()) < 1e6 && std::abs(at.y()) < 1e6)
+      cv::circle(wrapped, cv::Point(static_cast<int>(std::lround(at.x())), static_cast<int>(std::lround(at.y()))), radius,
+        cv::Scalar(0), cv::FILLED);
   }
-  for (int r = 0; r < high; ++r)
-    for (int c = 0; c < wide; ++c)
-    {
-      if (!hit[static_cast<size_t>(r) * wide + c])
-        continue;
-      for (int dr = -reach; dr <= reach; ++dr)
-        for (int dc = -reach; dc <= reach; ++dc)
-        {
-          const int rr = r - reach + dr, cc = c - reach + dc;
-          if (rr >= 0 && rr < rows && cc >= 0 && cc < columns && dr * dr + dc * dc <= radius * radius)
-            mask[static_cast<size_t>(rr) * columns + cc] = 0;
-        }
-    }
+}
+
+void LeaveOutAroundPoints(std::vector<uint8_t>& mask, const XRayView& view, const std::vector<Eigen::Vector3d>& points,
+  const Eigen::Isometry3d& ctToRoom, double radiusMM)
+{
+  const size_t pixels = static_cast<size_t>(view.Columns()) * view.Rows();
+  if (mask.empty())
+    mask.assign(pixels, 1);
+  if (mask.size() != pixels)
+    throw InputError("view " + view.name, "the mask does not match the panel");
+  LeaveOutAroundPoints(mask.data(), view, points, ctToRoom, radiusMM);
 }
 
 } // namespace xp

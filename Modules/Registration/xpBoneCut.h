@@ -37,6 +37,10 @@ VTKXPREGISTRATION_EXPORT std::vector<Eigen::Vector3d> CutFacePoints(const Attenu
 VTKXPREGISTRATION_EXPORT void LeaveOutAroundPoints(std::vector<uint8_t>& mask, const XRayView& view,
   const std::vector<Eigen::Vector3d>& points, const Eigen::Isometry3d& ctToRoom, double radiusMM);
 
+/** The same on a columns x rows buffer of `view`'s size (an OpenCV mask's data, 255 = kept). */
+VTKXPREGISTRATION_EXPORT void LeaveOutAroundPoints(uint8_t* mask, const XRayView& view,
+  const std::vector<Eigen::Vector3d>& points, const Eigen::Isometry3d& ctToRoom, double radiusMM);
+
 } // namespace xp
 
 #endif

@@ -114,6 +114,8 @@ EdgeAgreement MeasureEdgeAgreement(const std::vector<uint16_t>& xray, const std:
   const size_t n = static_cast<size_t>(columns) * rows;
   if (columns <= 0 || rows <= 0 || xray.size() != n || drr.size() != n || !(region.empty() || region.size() == n))
     throw InputError("edge agreement", "the X-ray, DRR and region differ in size");
+  if (shiftPixels < 1)
+    throw InputError("edge agreement", "the chance level's shift must be a pixel or more");
   cv::Mat inside(rows, columns, CV_8U, cv::Scalar(255));
   if (!region.empty())
     for (int r = 0; r < rows; ++r)

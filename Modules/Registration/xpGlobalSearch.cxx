@@ -131,22 +131,6 @@ std::vector<GlobalCandidate> Distinct(const std::vector<GlobalCandidate>& sorted
  *  beyond the cut the X-ray shows the bone running on (xpBoneCut.h). */
 constexpr double CutMarginMM = 5.0;
 
-/** Clears `shadow` (CV_8U, view-sized, or a window of it whose top-left pixel is `offset`) about
- *  the projections of `cutPoints` (CT mm) placed by `ctToRoom`. */
-void LeaveOutCuts(cv::Mat& shadow, const XRayView& view, const std::vector<Eigen::Vector3d>& cutPoints,
-  const Eigen::Isometry3d& ctToRoom)
-{
-  if (cutPoints.empty())
-    return;
-  const int radius = std::max(1, static_cast<int>(std::lround(CutMarginMM / std::min(view.pixelSpacing[0], view.pixelSpacing[1]))));
-  for (const Eigen::Vector3d& point : cutPoints)
-  {
-    const Eigen::Vector2d at = view.Project(ctToRoom * point);
-    cv::circle(shadow, cv::Point(static_cast<int>(std::lround(at.x())), static_cast<int>(std::lround(at.y()))), radius,
-      cv::Scalar(0), cv::FILLED);
-  }
-}
-
 /**
  * The search's score of a pose: per view, the correlation of the high-passed X-ray with the
  * high-passed DRR over the volume's shadow and a rim of 2 pixels (the template of the grid
@@ -180,7 +164,7 @@ public:
       if (cv::countNonZero(body & shadow) < MinWithinBody * pixels)
         return -1.0;
       cv::dilate(shadow, shadow, cv::Mat(), cv::Point(-1, -1), 2);
-      LeaveOutCuts(shadow, view, this->CutPoints, ctToRoom);
+      LeaveOutAroundPoints(shadow.ptr<uint8_t>(), view, this->CutPoints, ctToRoom, CutMarginMM);
       if (cv::countNonZero(shadow) < 16)
         return -1.0;
       const cv::Mat structure = HighPass(integrals);
@@ -308,7 +292,7 @@ std::vector<GlobalCandidate> FindGlobalStarts(const AttenuationVolume& volume, c
       // The bone's shadow and a rim of 2 pixels: the bone against what surrounds it; not where
       // the crop cut it.
       cv::dilate(shadow, shadow, cv::Mat(), cv::Point(-1, -1), 2);
-      LeaveOutCuts(shadow, view, cutPoints, ctToRoom);
+      LeaveOutAroundPoints(shadow.ptr<uint8_t>(), view, cutPoints, ctToRoom, CutMarginMM);
       const cv::Mat structure = HighPass(integrals);
       cv::matchTemplate(xrays[v].structure, structure(padded), maps[v], cv::TM_CCOEFF_NORMED, shadow(padded));
       // Where the X-ray is flat under the template (outside the field) the correlation is 0/0.

@@ -62,4 +62,5 @@ TEST(EdgeAgreement, TheRegionsBorderIsNoEdgeAndAFlatXRayHasNone)
   const xp::EdgeAgreement none = xp::MeasureEdgeAgreement(flat, drr, {}, columns, rows, 5);
   EXPECT_EQ(none.medianPixels, -1.0);
   EXPECT_THROW(xp::MeasureEdgeAgreement(flat, drr, left, columns + 1, rows, 5), xp::InputError);
+  EXPECT_THROW(xp::MeasureEdgeAgreement(drr, drr, {}, columns, rows, 0), xp::InputError) << "no chance level without a shift";
 }
