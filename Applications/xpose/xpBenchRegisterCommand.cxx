@@ -21,6 +21,7 @@
 #include <map>
 #include <optional>
 #include <thread>
+#include <utility>
 #include <unistd.h>
 
 namespace xp
@@ -150,6 +151,17 @@ void PrintStages(const VariantFigures& variant, int cores)
   }
 }
 
+/** "SEARCH/FINE" render strides (StereoRegistrationSettings::searchRenderStride, fineRenderStride). */
+std::pair<int, int> ParseRenderStrides(const std::string& text)
+{
+  int search = 0, fine = 0;
+  char slash = 0, rest = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &search, &slash, &fine, &rest) != 3 || slash != '/' || search < 1 || search > 8 ||
+    fine < 1 || fine > 8)
+    throw InputError("--render-strides", "'" + text + "' is not SEARCH/FINE, each 1 to 8 (for example 1/2)");
+  return { search, fine };
+}
+
 } // namespace
 
 int RunBenchRegister(const BenchRegisterOptions& options)
@@ -158,6 +170,11 @@ int RunBenchRegister(const BenchRegisterOptions& options)
     throw InputError("--trials", "must be at least 1");
   if (options.optimizers.empty())
     throw InputError("--optimizers", "name at least one optimiser");
+  if (options.renderStrides.empty())
+    throw InputError("--render-strides", "name at least one SEARCH/FINE pair");
+  std::vector<std::pair<int, int>> strides;
+  for (const std::string& text : options.renderStrides)
+    strides.push_back(ParseRenderStrides(text));
   for (const std::string& name : options.optimizers) // every name checked before hours of work
   {
     StereoRegistrationSettings check;
@@ -194,35 +211,40 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   std::vector<VariantFigures> variants;
   const std::filesystem::path scratch =
     std::filesystem::temp_directory_path() / ("xpose-bench-register-" + std::to_string(::getpid()));
-  for (const std::string& name : options.optimizers)
-  {
-    SetOptimizers(name, settings.registration, "--optimizers");
-    AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
-    // The folder only carries the records: a fresh one per optimiser, removed afterwards.
-    std::string folderName = name;
-    std::replace(folderName.begin(), folderName.end(), '/', '+');
-    const std::filesystem::path directory = scratch / folderName;
-    std::filesystem::remove_all(directory);
-    std::filesystem::create_directories(scratch);
-    VariantFigures variant;
-    variant.optimizer = name;
+  for (const std::string& optimizer : options.optimizers)
+    for (size_t k = 0; k < strides.size(); ++k)
     {
-      EvaluationFolder folder(directory.string(), "{\"bench\": \"register\", \"optimizer\": \"" + name + "\"}");
-      evaluation.Run(options.trials, { "B" }, folder, [&](const TrialRecord& record, int, int)
-        {
-          Record(variant, record, evaluation.LastResult());
-          std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s%s%s\n", name.c_str(), record.trial, record.status.c_str(),
-            record.mtre, record.totalSeconds, record.reasons.empty() ? "" : ": ", record.reasons.c_str());
-        });
+      SetOptimizers(optimizer, settings.registration, "--optimizers");
+      settings.registration.searchRenderStride = strides[k].first;
+      settings.registration.fineRenderStride = strides[k].second;
+      const std::string name = strides.size() > 1 || strides[k] != std::make_pair(1, 1)
+        ? optimizer + ", strides " + options.renderStrides[k] : optimizer;
+      AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
+      // The folder only carries the records: a fresh one per variant, removed afterwards.
+      std::string folderName = optimizer + "-" + std::to_string(k);
+      std::replace(folderName.begin(), folderName.end(), '/', '+');
+      const std::filesystem::path directory = scratch / folderName;
+      std::filesystem::remove_all(directory);
+      std::filesystem::create_directories(scratch);
+      VariantFigures variant;
+      variant.optimizer = name;
+      {
+        EvaluationFolder folder(directory.string(), "{\"bench\": \"register\", \"variant\": \"" + name + "\"}");
+        evaluation.Run(options.trials, { "B" }, folder, [&](const TrialRecord& record, int, int)
+          {
+            Record(variant, record, evaluation.LastResult());
+            std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s%s%s\n", name.c_str(), record.trial,
+              record.status.c_str(), record.mtre, record.totalSeconds, record.reasons.empty() ? "" : ": ", record.reasons.c_str());
+          });
+      }
+      std::filesystem::remove_all(directory);
+      PrintStages(variant, cores);
+      variants.push_back(std::move(variant));
     }
-    std::filesystem::remove_all(directory);
-    PrintStages(variant, cores);
-    variants.push_back(std::move(variant));
-  }
   std::filesystem::remove_all(scratch);
 
-  std::printf("\nOptimisers side by side (the same trials and X-rays; time = the registration, CT read excluded)\n");
-  std::printf("| optimiser | ok | within 1 mm and ok | median mTRE (mm) | median evaluations | median rays (M) | DRR share of "
+  std::printf("\nVariants side by side (the same trials and X-rays; time = the registration, CT read excluded)\n");
+  std::printf("| variant | ok | within 1 mm and ok | median mTRE (mm) | median evaluations | median rays (M) | DRR share of "
               "the time | median time (s) | p95 time (s) | time / %s |\n|---|---|---|---|---|---|---|---|---|---|\n",
     variants.front().optimizer.c_str());
   const double reference = Median(variants.front().seconds);

@@ -79,6 +79,9 @@ struct BenchRegisterOptions
   std::string size = "512x384";
   /** One name for every 6-DOF stage, or SEARCH/REFINEMENT. */
   std::vector<std::string> optimizers{ "nelder-mead", "cobyla", "nelder-mead/cobyla" };
+  /** Render strides compared, SEARCH/FINE (StereoRegistrationSettings::searchRenderStride,
+   *  fineRenderStride), each with every optimiser. */
+  std::vector<std::string> renderStrides{ "1/1" };
   unsigned seed = 11;
   double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
   int threads = 0;

@@ -55,6 +55,8 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << o.xrayStretch << "\""
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
        << ",\n  \"optimizer\": \"" << o.optimizer << "\""
+       << ",\n  \"fine_render_stride\": " << o.settings.fineRenderStride
+       << ",\n  \"search_render_stride\": " << o.settings.searchRenderStride
        << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
        << ",\n  \"coverage_min_excess\": " << o.settings.coverageMinExcess
        << ",\n  \"bins\": " << o.settings.bins << ",\n  \"max_evaluations\": " << o.settings.maxEvaluations

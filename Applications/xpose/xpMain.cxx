@@ -17,6 +17,11 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     ->capture_default_str();
   command->add_option("--high-pass-mm", settings.fineHighPassMM,
     "The refinement removes shading wider than this (sd, mm on the panel; 0: off)")->capture_default_str();
+  command->add_option("--fine-render-stride", settings.fineRenderStride,
+    "The refinement casts the DRR's rays on every N-th pixel of each row and column and interpolates the rest")
+    ->capture_default_str();
+  command->add_option("--search-render-stride", settings.searchRenderStride,
+    "The same for the coarse searches' half-size DRRs")->capture_default_str();
   command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
   command->add_option("--held-out-high-pass-mm", settings.heldOutHighPassMM,
@@ -143,6 +148,10 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
     optimizerNames += (optimizerNames.empty() ? "" : ", ") + name;
   benchRegister->add_option("--optimizers", reg.optimizers,
       "6-DOF optimisers compared: one of " + optimizerNames + " for every stage, or SEARCH/REFINEMENT (nelder-mead/cobyla)")
+    ->capture_default_str();
+  benchRegister->add_option("--render-strides", reg.renderStrides,
+      "Render strides compared, SEARCH/FINE (register's --search-render-stride and --fine-render-stride), each with every "
+      "optimiser")
     ->capture_default_str();
   benchRegister->add_option("--seed", reg.seed, "Seed of the trials and the noise")->capture_default_str();
   benchRegister->add_option("--min-translation", reg.minTranslation, "Smallest initial translation error, mm")->capture_default_str();

@@ -755,6 +755,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
     StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins,
       { settings.equalizedLevels, 0.0, correlationMM });
+    searchSimilarity.SetRenderStride(settings.searchRenderStride);
     searchSimilarity.SetCostSink(&cost);
     searchEnds = SearchFromTwoStarts(searchSimilarity, result.prealignment.pose, settings, pyramid, result, progress, stageStart);
     result.drrCount += searchSimilarity.RenderedDRRs();
@@ -781,6 +782,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       settings.boneShadowFineMarginMM, cutPoints);
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
     { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
+  fine.SetRenderStride(settings.fineRenderStride);
   fine.SetCostSink(&cost);
   const PoseOptimizerSettings fineSettings = RefinementSettings(settings);
   std::vector<PoseOptimizerResult> refined;

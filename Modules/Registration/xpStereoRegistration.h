@@ -66,6 +66,11 @@ struct StereoRegistrationSettings
    *  by +0.4 to +0.8 mm along ty; at 5 mm only the edges of such plateaus are left (Algorithms.md,
    *  "A verdict...", 7). 0 = off. The coarse stages keep the shading, which helps them travel. */
   double fineHighPassMM = 5.0;
+  /** The refinement (and the landscape, which reads its objective) renders the DRR's rays on
+   *  every this-th pixel and interpolates the rest (StereoSimilarity::SetRenderStride); 1: all. */
+  int fineRenderStride = 1;
+  /** The same for the coarse searches' half-size DRRs. */
+  int searchRenderStride = 1;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
   bool coverageMask = true;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <string>
 
 namespace xp
 {
@@ -108,8 +109,7 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     const long long count = static_cast<long long>(item.xray.size());
     using Clock = std::chrono::steady_clock;
     const Clock::time_point start = Clock::now();
-    const long long rays = RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
-      this->Traced[v], this->Integrals[v].data());
+    const long long rays = this->Render(v, ctToRoom);
     const Clock::time_point rendered = Clock::now();
     this->DRRCurrent[v] = false;
     if (this->Equalize)
@@ -131,6 +131,78 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     }
   }
   return objective;
+}
+
+void StereoSimilarity::SetRenderStride(int stride)
+{
+  if (stride < 1 || stride > 8)
+    throw InputError("render stride", "must be 1 to 8, not " + std::to_string(stride));
+  this->Stride = stride;
+  this->SparseGrids.clear();
+  this->SparseTraced.clear();
+  this->SparseIntegrals.clear();
+  if (stride == 1)
+    return;
+  for (const RegistrationView& item : this->Items)
+  {
+    const DetectorGrid full = DetectorGrid::TopRowFirst(item.view);
+    // Node (c', r') sits on pixel (stride c', stride r'); the last nodes reach past the last pixel.
+    DetectorGrid grid = full;
+    grid.columnStep = stride * full.columnStep;
+    grid.rowStep = stride * full.rowStep;
+    grid.columns = (full.columns - 1 + stride - 1) / stride + 1;
+    grid.rows = (full.rows - 1 + stride - 1) / stride + 1;
+    std::vector<uint8_t> nodes(static_cast<size_t>(grid.columns) * grid.rows, 0);
+    for (int r = 0; r < full.rows; ++r)
+      for (int c = 0; c < full.columns; ++c)
+      {
+        if (!item.mask.empty() && !item.mask[static_cast<size_t>(r) * full.columns + c])
+          continue;
+        const int c0 = c / stride, r0 = r / stride;
+        const int c1 = c0 + (c % stride != 0), r1 = r0 + (r % stride != 0);
+        for (int rr : { r0, r1 })
+          for (int cc : { c0, c1 })
+            nodes[static_cast<size_t>(rr) * grid.columns + cc] = 1;
+      }
+    this->SparseTraced.emplace_back(grid.columns, grid.rows, nodes.data());
+    this->SparseGrids.push_back(grid);
+    this->SparseIntegrals.emplace_back(nodes.size(), 0.0f);
+  }
+}
+
+long long StereoSimilarity::Render(size_t v, const Eigen::Isometry3d& ctToRoom)
+{
+  const RegistrationView& item = this->Items[v];
+  if (this->Stride == 1)
+    return RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
+      this->Traced[v], this->Integrals[v].data());
+  const DetectorGrid& grid = this->SparseGrids[v];
+  const long long rays =
+    RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, grid, this->SparseTraced[v], this->SparseIntegrals[v].data());
+  const float* nodes = this->SparseIntegrals[v].data();
+  float* out = this->Integrals[v].data();
+  const int columns = item.view.Columns(), rows = item.view.Rows(), stride = this->Stride;
+  const float step = 1.0f / static_cast<float>(stride);
+  for (int r = 0; r < rows; ++r)
+  {
+    const int r0 = r / stride, dr = r % stride;
+    const float fr = dr * step;
+    const float* row0 = nodes + static_cast<size_t>(r0) * grid.columns;
+    const float* row1 = dr ? row0 + grid.columns : row0;
+    for (int c = 0; c < columns; ++c)
+    {
+      const size_t i = static_cast<size_t>(r) * columns + c;
+      if (!item.mask.empty() && !item.mask[i])
+        continue;
+      const int c0 = c / stride, dc = c % stride;
+      const int c1 = dc ? c0 + 1 : c0;
+      const float fc = dc * step;
+      const float top = row0[c0] + fc * (row0[c1] - row0[c0]);
+      const float bottom = row1[c0] + fc * (row1[c1] - row1[c0]);
+      out[i] = top + fr * (bottom - top);
+    }
+  }
+  return rays;
 }
 
 double StereoSimilarity::CorrelateDRR(size_t v)

@@ -920,9 +920,9 @@ TEST(Commands, GeometryFromProjectionMatricesRoundTripsTheReferenceGeometry)
   EXPECT_NE(stat(options.output.c_str(), &info), 0) << "nothing written";
 }
 
-// `bench register` prints each optimiser's stages and one line per optimiser side by side, from
-// the same trials; an unknown optimiser is bad input.
-TEST(Commands, BenchRegisterPrintsStagesPerOptimiser)
+// `bench register` prints each variant's stages (optimiser x render strides) and one line per
+// variant side by side, from the same trials; an unknown optimiser or a malformed stride is bad input.
+TEST(Commands, BenchRegisterPrintsStagesPerVariant)
 {
   xp::BenchRegisterOptions options;
   options.ct = PhantomCT();
@@ -931,18 +931,35 @@ TEST(Commands, BenchRegisterPrintsStagesPerOptimiser)
   options.trials = 1;
   options.size = "128x96";
   options.optimizers = { "nelder-mead", "nelder-mead/bobyqa" };
+  options.renderStrides = { "1/1", "2/2" };
   ::testing::internal::CaptureStdout();
   const int code = xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); });
   const std::string out = ::testing::internal::GetCapturedStdout();
   ASSERT_EQ(code, xp::ExitOk) << out;
-  for (const char* text : { "nelder-mead: medians", "nelder-mead/bobyqa: medians", "| coarse search", "| fine | 1 |",
-         "| landscape | 1 |", "Optimisers side by side", "| nelder-mead | ", "| nelder-mead/bobyqa | " })
+  for (const char* text : { "nelder-mead, strides 1/1: medians", "nelder-mead/bobyqa, strides 2/2: medians", "| coarse search",
+         "| fine | 1 |", "| landscape | 1 |", "Variants side by side", "| nelder-mead, strides 1/1 | ",
+         "| nelder-mead, strides 2/2 | ", "| nelder-mead/bobyqa, strides 1/1 | " })
     EXPECT_NE(out.find(text), std::string::npos) << text << "\n" << out;
-  // The reference's time ratio to itself.
-  const size_t row = out.find("| nelder-mead | ", out.find("Optimisers side by side"));
-  ASSERT_NE(row, std::string::npos);
-  EXPECT_NE(out.substr(row, out.find('\n', row) - row).find("| 1.00 |"), std::string::npos) << out;
+  // The reference's time ratio to itself; every ray cast at stride 1, about a quarter at 2.
+  const auto row = [&](const std::string& name)
+  {
+    const size_t at = out.find("| " + name + " | ", out.find("Variants side by side"));
+    return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+  };
+  EXPECT_NE(row("nelder-mead, strides 1/1").find("| 1.00 |"), std::string::npos) << out;
+  const auto megaRays = [&](const std::string& name)
+  {
+    std::string text = row(name);
+    for (int column = 0; column < 6 && !text.empty(); ++column)
+      text = text.substr(text.find('|') + 1);
+    return std::atof(text.c_str());
+  };
+  EXPECT_LT(megaRays("nelder-mead, strides 2/2"), 0.5 * megaRays("nelder-mead, strides 1/1")) << out;
 
+  options.renderStrides = { "1/1" };
   options.optimizers = { "nelder-mead", "nelder-mead/simplex" };
+  EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
+  options.optimizers = { "nelder-mead" };
+  options.renderStrides = { "2-2" };
   EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
 }

@@ -114,6 +114,71 @@ TEST(StereoSimilarity, CorrelationOfStructurePeaksAtTheTruePose)
   EXPECT_LT(inverted.Evaluate(truth), -1.2);
 }
 
+TEST(StereoSimilarity, RenderStrideCastsEveryNthRayAndInterpolatesBetween)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("3,-2,1.5,1,-1,2", "truth");
+  std::vector<xp::RegistrationView> views = Simulate(scene, truth, 1);
+  for (xp::RegistrationView& item : views) // a mask whose edges fall between nodes
+  {
+    item.mask.assign(item.xray.size(), 0);
+    for (int r = 15; r < 101; ++r)
+      for (int c = 23; c < 137; ++c)
+        item.mask[static_cast<size_t>(r) * 160 + c] = 1;
+  }
+  const xp::SimilarityLevels plain{ false, 0.0 };
+  xp::StereoSimilarity everyRay(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, 32, plain);
+  xp::SimilarityCost allRays, someRays;
+  everyRay.SetCostSink(&allRays);
+  everyRay.Evaluate(truth);
+  for (const int stride : { 2, 3 })
+  {
+    xp::StereoSimilarity sparse(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, 32, plain);
+    sparse.SetRenderStride(stride);
+    someRays = {};
+    sparse.SetCostSink(&someRays);
+    sparse.Evaluate(truth);
+    // The nodes that valid pixels read, about one pixel in stride^2, and no others.
+    EXPECT_LT(someRays.rays, allRays.rays / (stride * stride) + 2 * (86 + 114));
+    EXPECT_GT(someRays.rays, allRays.rays / (stride * stride));
+    for (size_t v = 0; v < views.size(); ++v)
+    {
+      const std::vector<uint16_t>& exact = everyRay.LastDRR(v);
+      const std::vector<uint16_t>& interpolated = sparse.LastDRR(v);
+      int checked = 0;
+      for (int r = 0; r < 120; ++r)
+        for (int c = 0; c < 160; ++c)
+        {
+          const size_t i = static_cast<size_t>(r) * 160 + c;
+          if (!views[v].mask[i])
+            EXPECT_EQ(interpolated[i], 0);
+          else if (c % stride == 0 && r % stride == 0)
+            EXPECT_EQ(interpolated[i], exact[i]) << "node " << c << ", " << r; // the same ray
+          else if ((r % stride == 0) != (c % stride == 0))
+          {
+            // Between two nodes of a row or a column: the line integrals interpolated, so the
+            // transmission is the nodes' weighted geometric mean.
+            const int offset = std::max(c % stride, r % stride);
+            const size_t step = c % stride ? 1 : 160;
+            if ((c % stride ? c : r) + stride - offset >= (c % stride ? 160 : 120))
+              continue; // beyond the last node
+            const double w = double(offset) / stride;
+            const double before = exact[i - offset * step], after = exact[i + (stride - offset) * step];
+            if (before < 200 || after < 200)
+              continue; // the 12-bit rounding of dark nodes decides there
+            EXPECT_NEAR(interpolated[i], std::pow(before, 1.0 - w) * std::pow(after, w), 2.0) << "pixel " << c << ", " << r;
+            ++checked;
+          }
+        }
+      EXPECT_GT(checked, 500);
+    }
+    for (const char* off : { "4,-2,1.5,1,-1,2", "3,-2,2.5,1,-1,2", "0,0,0,0,0,0" })
+      EXPECT_GT(sparse.Evaluate(truth), sparse.Evaluate(xp::Pose::Parse(off, "off"))) << off;
+  }
+  xp::StereoSimilarity wrong(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, 32, plain);
+  EXPECT_THROW(wrong.SetRenderStride(0), xp::InputError);
+}
+
 TEST(PoseOptimizer, RecoversAKnownMisalignmentWithTheRightSigns)
 {
   Scene scene;
