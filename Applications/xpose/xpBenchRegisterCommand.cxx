@@ -156,9 +156,9 @@ std::pair<int, int> ParseRenderStrides(const std::string& text)
 {
   int search = 0, fine = 0;
   char slash = 0, rest = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &search, &slash, &fine, &rest) != 3 || slash != '/' || search < 1 || search > 8 ||
-    fine < 1 || fine > 8)
-    throw InputError("--render-strides", "'" + text + "' is not SEARCH/FINE, each 1 to 8 (for example 1/2)");
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &search, &slash, &fine, &rest) != 3 || slash != '/' || search < 0 || search > 8 ||
+    fine < 0 || fine > 8)
+    throw InputError("--render-strides", "'" + text + "' is not SEARCH/FINE, each 0 (automatic) to 8 (for example 1/2)");
   return { search, fine };
 }
 
@@ -217,7 +217,7 @@ int RunBenchRegister(const BenchRegisterOptions& options)
       SetOptimizers(optimizer, settings.registration, "--optimizers");
       settings.registration.searchRenderStride = strides[k].first;
       settings.registration.fineRenderStride = strides[k].second;
-      const std::string name = strides.size() > 1 || strides[k] != std::make_pair(1, 1)
+      const std::string name = strides.size() > 1 || strides[k] != std::make_pair(1, 0)
         ? optimizer + ", strides " + options.renderStrides[k] : optimizer;
       AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
       // The folder only carries the records: a fresh one per variant, removed afterwards.

@@ -96,8 +96,8 @@ void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
   CheckLimit(settings.bins, 8, 256, "--bins");
   CheckLimit(settings.maxEvaluations, 10, 100000, "--max-evaluations");
   CheckLimit(settings.fineHighPassMM, 0.0, 500.0, "--high-pass-mm");
-  CheckLimit(settings.fineRenderStride, 1, 8, "--fine-render-stride");
-  CheckLimit(settings.searchRenderStride, 1, 8, "--search-render-stride");
+  CheckLimit(settings.fineRenderStride, 0, 8, "--fine-render-stride");
+  CheckLimit(settings.searchRenderStride, 0, 8, "--search-render-stride");
   CheckLimit(settings.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");
   CheckLimit(settings.coverageMinExcess, 0.0, 1.0, "--coverage-min-excess");
   CheckLimit(settings.maxTranslation, 0.1, 500.0, "--max-translation");

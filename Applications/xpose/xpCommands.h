@@ -81,7 +81,7 @@ struct BenchRegisterOptions
   std::vector<std::string> optimizers{ "nelder-mead", "cobyla", "nelder-mead/cobyla" };
   /** Render strides compared, SEARCH/FINE (StereoRegistrationSettings::searchRenderStride,
    *  fineRenderStride), each with every optimiser. */
-  std::vector<std::string> renderStrides{ "1/1" };
+  std::vector<std::string> renderStrides{ "1/0" };
   unsigned seed = 11;
   double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
   int threads = 0;

@@ -185,6 +185,8 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.objective = result.objective;
   record.failures = result.failures;
   record.drrCount = result.drrCount;
+  record.searchRenderStride = result.searchRenderStride;
+  record.fineRenderStride = result.fineRenderStride;
   record.evaluations = result.evaluations;
   record.prealignSeconds = result.prealignSeconds;
   record.maskSeconds = result.maskSeconds;
@@ -234,6 +236,8 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     faces["left_out_last_slice"] = (r.endFaces[v].facesToLeaveOut & LastSliceFace) != 0;
   }
   root["drr_count"] = static_cast<Json::Int64>(r.drrCount);
+  root["render_strides"]["search"] = r.searchRenderStride;
+  root["render_strides"]["fine"] = r.fineRenderStride;
   root["evaluations"] = r.evaluations;
   Json::Value& timing = root["timing_s"];
   timing["read"] = r.readSeconds;
@@ -405,6 +409,11 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
       r.endFaces.push_back(faces);
     }
   r.drrCount = static_cast<long long>(f.Number("drr_count"));
+  if (f.Has("render_strides")) // absent in records written before the strides
+  {
+    r.searchRenderStride = static_cast<int>(f.Number("render_strides.search"));
+    r.fineRenderStride = static_cast<int>(f.Number("render_strides.fine"));
+  }
   r.evaluations = static_cast<int>(f.Number("evaluations"));
   r.readSeconds = f.Number("timing_s.read");
   r.prealignSeconds = f.Number("timing_s.prealign");

@@ -755,7 +755,9 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
     StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins,
       { settings.equalizedLevels, 0.0, correlationMM });
-    searchSimilarity.SetRenderStride(settings.searchRenderStride);
+    result.searchRenderStride =
+      settings.searchRenderStride > 0 ? settings.searchRenderStride : RenderStrideFor(coarseVolume, coarseSearch, isocenter);
+    searchSimilarity.SetRenderStride(result.searchRenderStride);
     searchSimilarity.SetCostSink(&cost);
     searchEnds = SearchFromTwoStarts(searchSimilarity, result.prealignment.pose, settings, pyramid, result, progress, stageStart);
     result.drrCount += searchSimilarity.RenderedDRRs();
@@ -782,7 +784,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       settings.boneShadowFineMarginMM, cutPoints);
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
     { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
-  fine.SetRenderStride(settings.fineRenderStride);
+  result.fineRenderStride = settings.fineRenderStride > 0 ? settings.fineRenderStride : RenderStrideFor(volume, masked, isocenter);
+  fine.SetRenderStride(result.fineRenderStride);
   fine.SetCostSink(&cost);
   const PoseOptimizerSettings fineSettings = RefinementSettings(settings);
   std::vector<PoseOptimizerResult> refined;

@@ -3,6 +3,8 @@
 #include "xpError.h"
 #include "xpImageLevels.h"
 
+#include <vtkSMPTools.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -24,13 +26,25 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
 
 } // namespace
 
+int RenderStrideFor(const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const Eigen::Vector3d& roomIsocenter)
+{
+  double widestPixelAtIsocenter = 0.0;
+  for (const RegistrationView& item : views)
+  {
+    const XRayView& view = item.view;
+    const double toIsocenter = (view.source - roomIsocenter).dot(view.NormalTowardsSource());
+    widestPixelAtIsocenter =
+      std::max(widestPixelAtIsocenter, view.pixelSpacing.maxCoeff() * toIsocenter / view.SourceToPanelDistance());
+  }
+  return 2.0 * widestPixelAtIsocenter <= 1.1 * volume.MaximumSpacing() ? 2 : 1;
+}
+
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
   const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins, const SimilarityLevels& levels)
   : Volume(volume)
   , Planned(plannedCTToRoom)
   , Isocenter(roomIsocenter)
   , Items(std::move(views))
-  , Histogram(bins)
   , Equalize(levels.equalize)
   , HighPassMM(levels.equalize ? levels.highPassSigmaMM : 0.0)
   , CorrelationMM(levels.correlationHighPassMM)
@@ -78,6 +92,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     this->DRRHighPass.emplace_back(mask, columns, rows, this->HighPassMM > 0.0 ? HighPassPixels(this->HighPassMM, item.view) : 0.0);
     this->DRRCorrelationLowPass.emplace_back(mask, columns, rows, this->CorrelationMM / item.view.pixelSpacing[0]);
   }
+  this->Histograms.assign(this->Items.size(), JointHistogram(bins));
   this->IntegralLevels.resize(this->Items.size());
   this->StructureLevels.resize(this->Items.size());
   this->Structure.resize(this->Items.size());
@@ -101,36 +116,48 @@ const std::vector<uint16_t>& StereoSimilarity::LastDRR(size_t v) const
 double StereoSimilarity::Evaluate(const Pose& misalignment)
 {
   const Eigen::Isometry3d ctToRoom = MisalignedCTToRoom(this->Planned, misalignment, this->Isocenter);
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  long long rays = 0;
+  for (size_t v = 0; v < this->Items.size(); ++v) // each DRR on every thread
+  {
+    rays += this->Render(v, ctToRoom);
+    this->DRRCurrent[v] = false;
+  }
+  const Clock::time_point rendered = Clock::now();
+  // The views' metrics read and write only their own buffers: one thread each.
+  vtkSMPTools::For(size_t{ 0 }, this->Items.size(), size_t{ 1 },
+    [this](size_t first, size_t last)
+    {
+      for (size_t v = first; v < last; ++v)
+        this->Measure(v);
+    });
   double objective = 0.0;
   for (size_t v = 0; v < this->Items.size(); ++v)
+    objective += this->CorrelationMM > 0.0 ? this->LastNCC[v] : this->LastMI[v] * this->LastMI[v];
+  this->DRRCount += static_cast<long long>(this->Items.size());
+  if (this->CostSink)
   {
-    const RegistrationView& item = this->Items[v];
-    const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
-    const long long count = static_cast<long long>(item.xray.size());
-    using Clock = std::chrono::steady_clock;
-    const Clock::time_point start = Clock::now();
-    const long long rays = this->Render(v, ctToRoom);
-    const Clock::time_point rendered = Clock::now();
-    this->DRRCurrent[v] = false;
-    if (this->Equalize)
-      this->RankDRR(v);
-    this->Histogram.Compute(this->XRayLevels(v).data(), this->LastDRRLevels(v).data(), count, mask, mask);
-    this->LastMI[v] = this->Histogram.MutualInformation();
-    if (this->CorrelationMM > 0.0)
-      objective += this->LastNCC[v] = this->CorrelateDRR(v);
-    else
-      objective += this->LastMI[v] * this->LastMI[v];
-    ++this->DRRCount;
-    if (this->CostSink)
-    {
-      const Clock::time_point measured = Clock::now();
-      this->CostSink->drrs += 1;
-      this->CostSink->rays += rays;
-      this->CostSink->renderSeconds += std::chrono::duration<double>(rendered - start).count();
-      this->CostSink->metricSeconds += std::chrono::duration<double>(measured - rendered).count();
-    }
+    const Clock::time_point measured = Clock::now();
+    this->CostSink->drrs += static_cast<long long>(this->Items.size());
+    this->CostSink->rays += rays;
+    this->CostSink->renderSeconds += std::chrono::duration<double>(rendered - start).count();
+    this->CostSink->metricSeconds += std::chrono::duration<double>(measured - rendered).count();
   }
   return objective;
+}
+
+void StereoSimilarity::Measure(size_t v)
+{
+  const RegistrationView& item = this->Items[v];
+  const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
+  if (this->Equalize)
+    this->RankDRR(v);
+  JointHistogram& histogram = this->Histograms[v];
+  histogram.Compute(this->XRayLevels(v).data(), this->LastDRRLevels(v).data(), static_cast<long long>(item.xray.size()), mask, mask);
+  this->LastMI[v] = histogram.MutualInformation();
+  if (this->CorrelationMM > 0.0)
+    this->LastNCC[v] = this->CorrelateDRR(v);
 }
 
 void StereoSimilarity::SetRenderStride(int stride)

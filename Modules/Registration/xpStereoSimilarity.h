@@ -62,6 +62,16 @@ struct SimilarityCost
   }
 };
 
+/**
+ * The render stride (StereoSimilarity::SetRenderStride) for DRRs of `volume` on these views: 2
+ * where two pixels at the isocentre span no more than the CT's largest voxel spacing (within
+ * 10 %: over a body 300 mm deep the magnification varies by about 15 % either side of the
+ * isocentre's), so that the rendered nodes are no farther apart than the CT's own samples and
+ * bilinear interpolation between them loses no detail the CT holds; otherwise 1.
+ */
+VTKXPREGISTRATION_EXPORT int RenderStrideFor(
+  const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const Eigen::Vector3d& roomIsocenter);
+
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
 {
 public:
@@ -105,6 +115,8 @@ public:
 private:
   /** Line integrals of view v at the pose, into Integrals[v]; returns the rays cast. */
   long long Render(size_t v, const Eigen::Isometry3d& ctToRoom);
+  /** Levels, histogram, MI (and correlation) of view v's last DRR against its X-ray. */
+  void Measure(size_t v);
   /** The last DRR's line integrals of view v as levels. */
   void RankDRR(size_t v);
   /** Correlation of view v's X-ray structure with the last DRR's (bone dark, as the ranks). */
@@ -114,7 +126,7 @@ private:
   Eigen::Isometry3d Planned;
   Eigen::Vector3d Isocenter;
   std::vector<RegistrationView> Items;
-  JointHistogram Histogram;
+  std::vector<JointHistogram> Histograms; ///< per view: the views' metrics run side by side
   std::vector<TracedPixels> Traced; ///< per view, built once: the mask is fixed
   std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
   int Stride = 1;
@@ -124,7 +136,7 @@ private:
   /** With equalised levels MI never reads the 12-bit DRRs: they are converted when asked for, not
    *  at every evaluation. */
   mutable std::vector<std::vector<uint16_t>> DRRs;
-  mutable std::vector<bool> DRRCurrent;
+  mutable std::vector<uint8_t> DRRCurrent; ///< bytes, not bits: the views' metrics set theirs side by side
   bool Equalize = true;
   double HighPassMM = 0.0;
   std::vector<std::vector<uint16_t>> XRayRanks;

@@ -25,6 +25,8 @@ xp::RegistrationRecord FailedRecord()
   result.objective = 0.7;
   result.failures = { { xp::GateCode::LowExplained, 1, "view right: the final DRR explains 0.120" } };
   result.drrCount = 1234;
+  result.searchRenderStride = 2;
+  result.fineRenderStride = 3;
   result.evaluations = 600;
   result.stages = { { "coarse search", 0, 1.5 }, { "fine", 400, 2.25 } };
   result.objectiveTrace = { 0.1, 0.3, 0.7 };
@@ -61,6 +63,8 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_EQ(read.failures[0].view, 1);
   EXPECT_EQ(read.Reasons(), written.Reasons());
   EXPECT_EQ(read.drrCount, 1234);
+  EXPECT_EQ(read.searchRenderStride, 2);
+  EXPECT_EQ(read.fineRenderStride, 3);
   EXPECT_DOUBLE_EQ(read.totalSeconds, 4.5);
   ASSERT_EQ(read.stages.size(), 2u);
   EXPECT_EQ(read.stages[1].firstEvaluation, 400);

@@ -179,6 +179,26 @@ TEST(StereoSimilarity, RenderStrideCastsEveryNthRayAndInterpolatesBetween)
   EXPECT_THROW(wrong.SetRenderStride(0), xp::InputError);
 }
 
+// Two pixels at the isocentre (the panel's pixel over the magnification, 1.5 here) against the CT's
+// largest voxel: the phantom's 2 mm voxels allow stride 2 at 256x192 (1.04 mm at the
+// isocentre) and not at 240x180 (1.11 mm).
+TEST(StereoSimilarity, RenderStrideForKeepsNodesWithinTheCTsVoxel)
+{
+  Scene scene; // 2 mm voxels
+  const auto viewsAt = [](int columns, int rows)
+  {
+    std::vector<xp::RegistrationView> views;
+    for (const xp::XRayView& view : StereoViews(columns, rows))
+      views.push_back({ view, std::vector<uint16_t>(static_cast<size_t>(columns) * rows), {} });
+    return views;
+  };
+  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(256, 192), Eigen::Vector3d::Zero()), 2);
+  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(240, 180), Eigen::Vector3d::Zero()), 1);
+  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(1024, 768), Eigen::Vector3d::Zero()), 2);
+  // An isocentre nearer the source magnifies more: the same pixels are finer there.
+  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(240, 180), Eigen::Vector3d(0.0, 0.0, -100.0)), 2);
+}
+
 TEST(PoseOptimizer, RecoversAKnownMisalignmentWithTheRightSigns)
 {
   Scene scene;
