@@ -36,7 +36,7 @@ int RenderStrideFor(const AttenuationVolume& volume, const std::vector<Registrat
     widestPixelAtIsocenter =
       std::max(widestPixelAtIsocenter, view.pixelSpacing.maxCoeff() * toIsocenter / view.SourceToPanelDistance());
   }
-  return 2.0 * widestPixelAtIsocenter <= 1.1 * volume.MaximumSpacing() ? 2 : 1;
+  return 2.0 * widestPixelAtIsocenter <= 1.1 * volume.MinimumSpacing() ? 2 : 1;
 }
 
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,

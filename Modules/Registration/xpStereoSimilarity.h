@@ -64,10 +64,11 @@ struct SimilarityCost
 
 /**
  * The render stride (StereoSimilarity::SetRenderStride) for DRRs of `volume` on these views: 2
- * where two pixels at the isocentre span no more than the CT's largest voxel spacing (within
+ * where two pixels at the isocentre span no more than the CT's finest voxel spacing (within
  * 10 %: over a body 300 mm deep the magnification varies by about 15 % either side of the
- * isocentre's), so that the rendered nodes are no farther apart than the CT's own samples and
- * bilinear interpolation between them loses no detail the CT holds; otherwise 1.
+ * isocentre's), so that the rendered nodes are no farther apart than the CT's own samples along
+ * any axis and bilinear interpolation between them loses no detail the CT holds; otherwise 1. A
+ * CT of 0.8 mm pixels and 3 mm slices keeps every ray at 0.52 mm per pixel at the isocentre.
  */
 VTKXPREGISTRATION_EXPORT int RenderStrideFor(
   const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const Eigen::Vector3d& roomIsocenter);

@@ -180,7 +180,7 @@ TEST(StereoSimilarity, RenderStrideCastsEveryNthRayAndInterpolatesBetween)
 }
 
 // Two pixels at the isocentre (the panel's pixel over the magnification, 1.5 here) against the CT's
-// largest voxel: the phantom's 2 mm voxels allow stride 2 at 256x192 (1.04 mm at the
+// finest voxel spacing: the phantom's 2 mm voxels allow stride 2 at 256x192 (1.04 mm at the
 // isocentre) and not at 240x180 (1.11 mm).
 TEST(StereoSimilarity, RenderStrideForKeepsNodesWithinTheCTsVoxel)
 {
@@ -197,6 +197,13 @@ TEST(StereoSimilarity, RenderStrideForKeepsNodesWithinTheCTsVoxel)
   EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(1024, 768), Eigen::Vector3d::Zero()), 2);
   // An isocentre nearer the source magnifies more: the same pixels are finer there.
   EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(240, 180), Eigen::Vector3d(0.0, 0.0, -100.0)), 2);
+  // Pixels of 0.8 mm and slices of 3 mm: the finest spacing decides, not the slices.
+  const std::vector<float> water(16 * 16 * 16, 0.0f);
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  indexToCT.linear() = Eigen::Vector3d(0.8, 0.8, 3.0).asDiagonal();
+  const xp::AttenuationVolume thinPixels(water.data(), Eigen::Vector3i(16, 16, 16), indexToCT, xp::WaterAttenuationPerMM);
+  EXPECT_EQ(xp::RenderStrideFor(thinPixels, viewsAt(256, 192), Eigen::Vector3d::Zero()), 1);
+  EXPECT_EQ(xp::RenderStrideFor(thinPixels, viewsAt(1024, 768), Eigen::Vector3d::Zero()), 2);
 }
 
 TEST(PoseOptimizer, RecoversAKnownMisalignmentWithTheRightSigns)
