@@ -173,12 +173,15 @@ PreAlignmentResult PreAlign(StereoSimilarity& similarity, const Pose& start, con
     views.push_back(item.view);
   for (int iteration = 0; iteration < maxIterations; ++iteration)
   {
-    std::vector<Motion2D> motions;
-    for (size_t v = 0; v < items.size(); ++v)
-    {
-      motions.push_back(Register2D(similarity.XRayLevels(v), similarity.LastDRRLevels(v), items[v].view.Columns(), items[v].view.Rows(),
-        items[v].view.Project(isocenter), items[v].mask.empty() ? nullptr : items[v].mask.data()));
-    }
+    // The views' 2D registrations are independent: one thread each (their warps then run in it).
+    std::vector<Motion2D> motions(items.size());
+    vtkSMPTools::For(size_t{ 0 }, items.size(), size_t{ 1 },
+      [&](size_t first, size_t last)
+      {
+        for (size_t v = first; v < last; ++v)
+          motions[v] = Register2D(similarity.XRayLevels(v), similarity.LastDRRLevels(v), items[v].view.Columns(),
+            items[v].view.Rows(), items[v].view.Project(isocenter), items[v].mask.empty() ? nullptr : items[v].mask.data());
+      });
     const Pose update = InverseProjection(views, motions, isocenter);
     const Pose candidate =
       Pose::FromTransform(update.ToTransform(isocenter) * result.pose.ToTransform(isocenter), isocenter);

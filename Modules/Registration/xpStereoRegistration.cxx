@@ -8,6 +8,8 @@
 #include "xpQualityGate.h"
 #include "xpRayCaster.h"
 
+#include <vtkSMPTools.h>
+
 #include <algorithm>
 #include <ctime>
 #include <chrono>
@@ -904,12 +906,20 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   evidence.searchApartDegrees = result.searchDisagreementDegrees;
   evidence.uncertainty = result.uncertainty;
   evidence.peakMargin = result.peakMargin;
-  JointHistogram histogram(settings.bins);
+  // Each view's checks read only its own images: one thread each.
+  std::vector<ViewEvidence> measured(masked.size());
+  vtkSMPTools::For(size_t{ 0 }, masked.size(), size_t{ 1 },
+    [&](size_t first, size_t last)
+    {
+      JointHistogram histogram(settings.bins);
+      for (size_t v = first; v < last; ++v)
+        measured[v] = MeasureView(fine, v, working.openFieldBright[v], isocenter, settings, histogram);
+    });
   for (size_t v = 0; v < masked.size(); ++v)
   {
     result.drrs.push_back(fine.LastDRR(v));
     result.masks.push_back(masked[v].mask);
-    const ViewEvidence view = MeasureView(fine, v, working.openFieldBright[v], isocenter, settings, histogram);
+    const ViewEvidence& view = measured[v];
     result.explained.push_back(view.explained);
     result.uncovered.push_back(view.uncovered);
     result.viewResidualMM.push_back(view.residualMM);
