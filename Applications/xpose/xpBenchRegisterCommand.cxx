@@ -100,11 +100,11 @@ void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegi
   prealign.renderSeconds = result.prealignCost.renderSeconds;
   prealign.metricSeconds = result.prealignCost.metricSeconds;
   prealign.wallSeconds = result.prealignSeconds;
-  prealign.cpuSeconds = -1.0; // not measured outside the 6-DOF stages
+  prealign.cpuSeconds = result.prealignCPUSeconds;
   add("pre-alignment", prealign);
   StageFigures masks;
   masks.wallSeconds = result.maskSeconds;
-  masks.cpuSeconds = -1.0;
+  masks.cpuSeconds = result.maskCPUSeconds;
   add("masks", masks);
   double rays = prealign.megaRays, render = prealign.renderSeconds;
   for (size_t s = 0; s < result.stages.size(); ++s)
@@ -115,14 +115,18 @@ void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegi
     render += f.renderSeconds;
     add(result.stages[s].name, f);
   }
-  // What no stage holds: the X-rays' polarity probe and the gate's own per-view checks.
-  double staged = prealign.wallSeconds + masks.wallSeconds;
+  StageFigures gate;
+  gate.wallSeconds = result.gateSeconds;
+  gate.cpuSeconds = result.gateCPUSeconds;
+  add("quality gate (each view's checks)", gate);
+  // What no stage holds: reading the X-rays into the filter, the end-face test, the records.
+  double staged = prealign.wallSeconds + masks.wallSeconds + gate.wallSeconds;
   for (const RegistrationStage& stage : result.stages)
     staged += stage.seconds;
   StageFigures other;
   other.wallSeconds = std::max(0.0, record.totalSeconds - staged);
   other.cpuSeconds = -1.0;
-  add("other (polarity probe, gate's view checks)", other);
+  add("other (outside the stages)", other);
   variant.megaRays.push_back(rays);
   variant.renderShare.push_back(record.totalSeconds > 0.0 ? render / record.totalSeconds : 0.0);
 }

@@ -30,6 +30,12 @@ double Since(Clock::time_point start)
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+/** CPU seconds of all the process's threads since `start` (std::clock). */
+double CPUSince(std::clock_t start)
+{
+  return static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
+}
+
 template <typename T, typename Combine>
 std::vector<T> Shrink(const std::vector<T>& in, int columns, int factor, Combine combine)
 {
@@ -688,6 +694,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // half-resolution CT where its voxels stay fine enough: their pixels are twice as wide, and a
   // ray takes half the samples.
   Clock::time_point start = Clock::now();
+  std::clock_t cpuStart = std::clock();
   progress.Begin("pre-alignment", 0.0, 0.1);
   const bool halveCT = pyramid && 2.0 * volume.MaximumSpacing() <= settings.maxHalvedVoxelMM;
   const AttenuationVolume halfVolume = halveCT ? volume.Halved() : AttenuationVolume();
@@ -730,10 +737,12 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     result.prealignment = PreAlign(coarse, settings.initialPose, isocenter);
   result.drrCount += coarse.RenderedDRRs();
   result.prealignSeconds = Since(start);
+  result.prealignCPUSeconds = CPUSince(cpuStart);
   result.prealignCost = cost;
 
   // 2. Entropy masks AND ROIs AND the CT's coverage at the pre-alignment.
   start = Clock::now();
+  cpuStart = std::clock();
   const CTCoverage coverage(volume, settings.coverageMarginMM);
   if (settings.coverageMask)
   {
@@ -747,6 +756,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     views, working.noiseScaled, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
   std::vector<RegistrationView>& masked = masks.masked;
   result.maskSeconds = Since(start);
+  result.maskCPUSeconds = CPUSince(cpuStart);
 
   // 3. 6-DOF alignment with masked DRRs: the coarse search (half resolution), then each end it
   // leaves refined at full resolution.
@@ -898,6 +908,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
 
   // 4. Quality gate, on what each view says at the result.
   progress.Begin("quality gate", 0.95, 1.0);
+  const Clock::time_point gateStart = Clock::now();
+  const std::clock_t gateCPUStart = std::clock();
   evidence.misalignment = fineResult.pose; // the gate's motion limits: about the same centre as the start
   evidence.start = settings.initialPose;
   evidence.converged = fineResult.converged;
@@ -929,6 +941,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   result.failures = CheckQuality(evidence, settings);
   result.prealignment.pose = aboutIsocenter(result.prealignment.pose);
   result.ok = result.failures.empty();
+  result.gateSeconds = Since(gateStart);
+  result.gateCPUSeconds = CPUSince(gateCPUStart);
   progress.Done();
   return result;
 }

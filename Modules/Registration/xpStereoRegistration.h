@@ -212,6 +212,9 @@ struct StereoRegistrationResult
     std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
+  /** CPU time of the process's threads in those steps, and the quality gate's wall and CPU time
+   *  (its per-view checks): with the wall time, how busy the cores were. */
+  double prealignCPUSeconds = 0.0, maskCPUSeconds = 0.0, gateSeconds = 0.0, gateCPUSeconds = 0.0;
   SimilarityCost prealignCost; ///< the pre-alignment's
 };
 
