@@ -938,7 +938,7 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
   ASSERT_EQ(code, xp::ExitOk) << out;
   for (const char* text : { "nelder-mead, strides 1/1: medians", "nelder-mead/bobyqa, strides 2/2: medians", "| coarse search",
          "| fine | 1 |", "| landscape | 1 |", "Variants side by side", "| nelder-mead, strides 1/1 | ",
-         "| nelder-mead, strides 2/2 | ", "| nelder-mead/bobyqa, strides 1/1 | " })
+         "| nelder-mead, strides 2/2 | ", "| nelder-mead/bobyqa, strides 1/1 | ", "median time with the CT read (s)" })
     EXPECT_NE(out.find(text), std::string::npos) << text << "\n" << out;
   // The reference's time ratio to itself; every ray cast at stride 1, about a quarter at 2.
   const auto row = [&](const std::string& name)
