@@ -70,9 +70,9 @@ struct StereoRegistrationSettings
    *  every this-th pixel and interpolates the rest (StereoSimilarity::SetRenderStride); 1: all;
    *  0: RenderStrideFor the CT and the views. */
   int fineRenderStride = 0;
-  /** The same for the coarse searches' half-size DRRs (of the half-resolution CT where used).
-   *  1: at stride 2 the coarser search left the refinement more to do, and the whole
-   *  registration gained 5 % (Performance.md). */
+  /** The same for the coarse searches' half-size DRRs (of the half-resolution CT where used);
+   *  every ray by default: at stride 2 the coarser searches left the refinement more to do, and
+   *  the whole registration gained 5 % (Performance.md). */
   int searchRenderStride = 1;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
