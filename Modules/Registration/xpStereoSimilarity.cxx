@@ -60,7 +60,6 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     {
       throw InputError("view " + item.view.name, "X-ray or mask size does not match the panel");
     }
-    this->Traced.emplace_back(item.view.Columns(), item.view.Rows(), item.mask.empty() ? nullptr : item.mask.data());
     this->Integrals.emplace_back(pixels);
     this->DRRs.emplace_back(pixels);
     this->DRRRanks.emplace_back(pixels);
@@ -93,6 +92,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     this->DRRCorrelationLowPass.emplace_back(mask, columns, rows, this->CorrelationMM / item.view.pixelSpacing[0]);
   }
   this->Histograms.assign(this->Items.size(), JointHistogram(bins));
+  this->SetRenderStride(1);
   this->IntegralLevels.resize(this->Items.size());
   this->StructureLevels.resize(this->Items.size());
   this->Structure.resize(this->Items.size());
@@ -165,14 +165,18 @@ void StereoSimilarity::SetRenderStride(int stride)
   if (stride < 1 || stride > 8)
     throw InputError("render stride", "must be 1 to 8, not " + std::to_string(stride));
   this->Stride = stride;
-  this->SparseGrids.clear();
-  this->SparseTraced.clear();
-  this->SparseIntegrals.clear();
-  if (stride == 1)
-    return;
+  this->Grids.clear();
+  this->Traced.clear();
+  this->NodeIntegrals.clear();
   for (const RegistrationView& item : this->Items)
   {
     const DetectorGrid full = DetectorGrid::TopRowFirst(item.view);
+    if (stride == 1)
+    {
+      this->Grids.push_back(full);
+      this->Traced.emplace_back(full.columns, full.rows, item.mask.empty() ? nullptr : item.mask.data());
+      continue;
+    }
     // Node (c', r') sits on pixel (stride c', stride r'); the last nodes reach past the last pixel.
     DetectorGrid grid = full;
     grid.columnStep = stride * full.columnStep;
@@ -191,9 +195,9 @@ void StereoSimilarity::SetRenderStride(int stride)
           for (int cc : { c0, c1 })
             nodes[static_cast<size_t>(rr) * grid.columns + cc] = 1;
       }
-    this->SparseTraced.emplace_back(grid.columns, grid.rows, nodes.data());
-    this->SparseGrids.push_back(grid);
-    this->SparseIntegrals.emplace_back(nodes.size(), 0.0f);
+    this->Grids.push_back(grid);
+    this->Traced.emplace_back(grid.columns, grid.rows, nodes.data());
+    this->NodeIntegrals.emplace_back(nodes.size(), 0.0f);
   }
 }
 
@@ -201,12 +205,11 @@ long long StereoSimilarity::Render(size_t v, const Eigen::Isometry3d& ctToRoom)
 {
   const RegistrationView& item = this->Items[v];
   if (this->Stride == 1)
-    return RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view),
-      this->Traced[v], this->Integrals[v].data());
-  const DetectorGrid& grid = this->SparseGrids[v];
+    return RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, this->Grids[v], this->Traced[v], this->Integrals[v].data());
+  const DetectorGrid& grid = this->Grids[v];
   const long long rays =
-    RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, grid, this->SparseTraced[v], this->SparseIntegrals[v].data());
-  const float* nodes = this->SparseIntegrals[v].data();
+    RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, grid, this->Traced[v], this->NodeIntegrals[v].data());
+  const float* nodes = this->NodeIntegrals[v].data();
   float* out = this->Integrals[v].data();
   const int columns = item.view.Columns(), rows = item.view.Rows(), stride = this->Stride;
   const float step = 1.0f / static_cast<float>(stride);

@@ -128,12 +128,14 @@ private:
   Eigen::Vector3d Isocenter;
   std::vector<RegistrationView> Items;
   std::vector<JointHistogram> Histograms; ///< per view: the views' metrics run side by side
-  std::vector<TracedPixels> Traced; ///< per view, built once: the mask is fixed
   std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
   int Stride = 1;
-  std::vector<DetectorGrid> SparseGrids;       ///< with a stride: the rendered nodes, per view
-  std::vector<TracedPixels> SparseTraced;      ///< the nodes that a valid pixel's interpolation reads
-  std::vector<std::vector<float>> SparseIntegrals;
+  /** Per view, built once per stride (the mask is fixed): where the rays are cast (the panel, or
+   *  every stride-th pixel's node), which of them (the valid pixels, or the nodes their
+   *  interpolation reads), and, with a stride, the nodes' line integrals. */
+  std::vector<DetectorGrid> Grids;
+  std::vector<TracedPixels> Traced;
+  std::vector<std::vector<float>> NodeIntegrals;
   /** With equalised levels MI never reads the 12-bit DRRs: they are converted when asked for, not
    *  at every evaluation. */
   mutable std::vector<std::vector<uint16_t>> DRRs;
