@@ -55,6 +55,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << o.xrayStretch << "\""
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
        << ",\n  \"optimizer\": \"" << o.optimizer << "\""
+       << ",\n  \"xray_smoothing\": " << o.settings.xraySmoothingPerVoxel
        << ",\n  \"fine_render_stride\": " << o.settings.fineRenderStride
        << ",\n  \"search_render_stride\": " << o.settings.searchRenderStride
        << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
@@ -105,10 +106,12 @@ StereoRegistrationSettings RegistrationSettingsOf(const EvaluateOptions& options
       settings.coverageMask = false;
     else if (step == "median")
       settings.medianFilter = false;
+    else if (step == "smoothing")
+      settings.xraySmoothingPerVoxel = 0.0;
     else if (step == "bone-cuts")
       settings.leaveOutBoneCuts = false;
     else
-      throw InputError("--registration-off", "expected levels, high-pass, coverage, median or bone-cuts, got '" + step + "'");
+      throw InputError("--registration-off", "expected levels, high-pass, coverage, median, smoothing or bone-cuts, got '" + step + "'");
   }
   return settings;
 }

@@ -17,6 +17,9 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     ->capture_default_str();
   command->add_option("--high-pass-mm", settings.fineHighPassMM,
     "The refinement removes shading wider than this (sd, mm on the panel; 0: off)")->capture_default_str();
+  command->add_option("--xray-smoothing", settings.xraySmoothingPerVoxel,
+    "Each X-ray is smoothed by a Gaussian of this sd at the isocentre, in the CT's finest voxel spacings "
+    "(0.41: the detail a DRR of that CT holds; 0: off)")->capture_default_str();
   command->add_option("--fine-render-stride", settings.fineRenderStride,
     "The refinement casts the DRR's rays on every N-th pixel of each row and column and interpolates the rest "
     "(0: 2 where two pixels at the isocentre span at most the CT's finest voxel spacing, else 1)")
@@ -290,7 +293,7 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
     "Optimiser of the 6-DOF stages, as register's: nelder-mead, sbplx, bobyqa, cobyla or SEARCH/REFINEMENT")
     ->capture_default_str();
   evaluateCommand->add_option("--registration-off", options.registrationOff,
-    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage, median, "
+    "Registration steps to switch off, to measure them: levels (MI on 12-bit values), high-pass, coverage, median, smoothing, "
     "bone-cuts (a cut bone's ends kept in its masks)")
     ->delimiter(',');
   AddMethodOptions(evaluateCommand, options.settings);

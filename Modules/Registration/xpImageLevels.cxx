@@ -48,6 +48,48 @@ std::vector<uint16_t> Median3x3(const std::vector<uint16_t>& image, int columns,
   return out;
 }
 
+std::vector<uint16_t> GaussianSmoothed(
+  const std::vector<uint16_t>& image, int columns, int rows, double sigmaPixels, int scale)
+{
+  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigmaPixels)));
+  std::vector<float> kernel(2 * radius + 1);
+  float sum = 0.0f;
+  for (int k = -radius; k <= radius; ++k)
+    sum += kernel[k + radius] = static_cast<float>(std::exp(-0.5 * k * k / (sigmaPixels * sigmaPixels)));
+  for (float& weight : kernel)
+    weight /= sum;
+  // Rows first into floats, then columns; an edge pixel stands in for the pixels beyond it.
+  std::vector<float> alongRows(image.size());
+  for (int r = 0; r < rows; ++r)
+  {
+    const uint16_t* in = image.data() + static_cast<size_t>(r) * columns;
+    float* out = alongRows.data() + static_cast<size_t>(r) * columns;
+    for (int c = 0; c < columns; ++c)
+    {
+      float value = 0.0f;
+      for (int k = -radius; k <= radius; ++k)
+        value += kernel[k + radius] * in[std::clamp(c + k, 0, columns - 1)];
+      out[c] = value;
+    }
+  }
+  std::vector<uint16_t> smoothed(image.size());
+  std::vector<float> column(static_cast<size_t>(rows));
+  for (int c = 0; c < columns; ++c)
+  {
+    for (int r = 0; r < rows; ++r)
+      column[r] = alongRows[static_cast<size_t>(r) * columns + c];
+    for (int r = 0; r < rows; ++r)
+    {
+      float value = 0.0f;
+      for (int k = -radius; k <= radius; ++k)
+        value += kernel[k + radius] * column[std::clamp(r + k, 0, rows - 1)];
+      smoothed[static_cast<size_t>(r) * columns + c] =
+        static_cast<uint16_t>(std::min(65535.0f, std::round(value * static_cast<float>(scale))));
+    }
+  }
+  return smoothed;
+}
+
 std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask)
 {
   std::vector<long long> histogram(65536, 0);

@@ -51,6 +51,15 @@ private:
  *  its outliers, and an edge keeps its place. */
 VTKXPREGISTRATION_EXPORT std::vector<uint16_t> Median3x3(const std::vector<uint16_t>& image, int columns, int rows);
 
+/**
+ * A columns x rows image smoothed by a Gaussian of sd `sigmaPixels` (separable, edges
+ * replicated), its values multiplied by `scale` before rounding so that the averages keep the
+ * levels between the stored ones (an 8- or 12-bit image smoothed would otherwise fall back onto
+ * its own few levels). The result must fit 16 bits: scale * the largest value <= 65535.
+ */
+VTKXPREGISTRATION_EXPORT std::vector<uint16_t> GaussianSmoothed(
+  const std::vector<uint16_t>& image, int columns, int rows, double sigmaPixels, int scale);
+
 /** Mid-rank levels of a 12-bit image over its valid pixels (histogram equalisation). */
 VTKXPREGISTRATION_EXPORT std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask);
 

@@ -181,6 +181,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.uncovered = result.uncovered;
   record.viewResidualMM = result.viewResidualMM;
   record.validFraction = result.validFraction;
+  record.xraySmoothingPixels = result.xraySmoothingPixels;
   record.endFaces = result.endFaces;
   record.objective = result.objective;
   record.failures = result.failures;
@@ -227,6 +228,8 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   root["uncovered_fraction"] = PerView(r.viewNames, r.uncovered);
   root["view_residual_mm"] = PerView(r.viewNames, r.viewResidualMM);
   root["mask_valid_fraction"] = PerView(r.viewNames, r.validFraction);
+  if (!r.xraySmoothingPixels.empty())
+    root["xray_smoothing_px"] = PerView(r.viewNames, r.xraySmoothingPixels);
   for (size_t v = 0; v < r.viewNames.size() && v < r.endFaces.size(); ++v)
   {
     Json::Value& faces = root["ct_end_faces"][r.viewNames[v]];
@@ -365,6 +368,8 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames);
   r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames);
   r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames);
+  if (f.Has("xray_smoothing_px")) // absent in records written before the smoothing
+    r.xraySmoothingPixels = f.PerViewNumbers("xray_smoothing_px", r.viewNames);
   if (f.Has("volume_to_room")) // absent in records written before it
   {
     const Json::Value& rows = f.Array("volume_to_room");

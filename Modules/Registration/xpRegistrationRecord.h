@@ -46,6 +46,7 @@ struct RegistrationRecord
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0; ///< bones: restarts' farthest end (written only)
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
+  std::vector<double> xraySmoothingPixels; ///< per view: the X-ray's smoothing sd (pixels)
   /** Per view, when the CT coverage mask was on: the anatomy each X-ray shows beyond the CT's
    *  end faces and the faces whose rays were left out (xpCTCoverage.h). */
   std::vector<EndFaceEvidence> endFaces;

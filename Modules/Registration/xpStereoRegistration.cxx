@@ -442,7 +442,9 @@ constexpr double EdgeShiftMM = 3.0;
 
 /** Step 4c: the DRR's edges against the X-ray's at the result, at full size over the held-out
  *  check's region (the ROI, the CT's coverage and its shadow; xpEdgeAgreement.h), both as
- *  equalised levels. Not a gate check: a figure to read beside the overlay. */
+ *  equalised levels; the X-ray as the reader sees it in the overlay, before its smoothing (a
+ *  thin rim blurred in one image only puts its edges a pixel apart). Not a gate check: a figure
+ *  to read beside the overlay. */
 void MeasureEdges(StereoSimilarity& atFullSize, const Pose& pose, const Eigen::Vector3d& isocenter, StereoRegistrationResult& result)
 {
   atFullSize.Evaluate(pose);
@@ -518,11 +520,57 @@ ViewEvidence MeasureView(StereoSimilarity& fine, size_t v, const std::vector<uin
  *  not information. */
 constexpr double EntropyLevelsPerNoiseSigma = 16.0;
 
+/**
+ * What share of an image's noise sd its neighbour differences still see once the image is
+ * smoothed by a Gaussian of sd `sigmaPixels`: the smoothing makes neighbours alike (correlation
+ * exp(-1 / (4 sigma^2)) at one pixel), so their differences shrink more than the noise does. The
+ * entropy mask scales its levels by it, so that its bins stay two noise sd wide; without it the
+ * mask took smoothed noise for structure (the processed pelvis kept 30 k pixels whose DRR
+ * explained 4-5 % of the X-ray).
+ */
+double NeighbourNoiseShare(double sigmaPixels)
+{
+  return sigmaPixels > 0.0 ? std::sqrt(1.0 - std::exp(-1.0 / (4.0 * sigmaPixels * sigmaPixels))) : 1.0;
+}
+
+/** A smoothing sd under this many pixels leaves an image as it is (its kernel's side weights
+ *  are under 0.4 %): skipped. */
+constexpr double LeastSmoothingPixels = 0.3;
+
 /** The views with each X-ray replaced by its 3x3 median (Median3x3). */
 std::vector<RegistrationView> MedianFiltered(std::vector<RegistrationView> views)
 {
   for (RegistrationView& item : views)
     item.xray = Median3x3(item.xray, item.view.Columns(), item.view.Rows());
+  return views;
+}
+
+/**
+ * The X-rays smoothed to the CT's resolution (GaussianSmoothed,
+ * StereoRegistrationSettings::xraySmoothingPerVoxel): what every later step sees. Ranked X-rays
+ * are smoothed at the largest power-of-two scale that fits 16 bits: ranks do not change with
+ * scale, and the averages keep the levels between the stored ones.
+ */
+std::vector<RegistrationView> SmoothedToTheCT(std::vector<RegistrationView> views, const AttenuationVolume& volume,
+  const Eigen::Vector3d& roomIsocenter, const StereoRegistrationSettings& settings, StereoRegistrationResult& result)
+{
+  for (RegistrationView& item : views)
+  {
+    const int columns = item.view.Columns(), rows = item.view.Rows();
+    const double sigma =
+      settings.xraySmoothingPerVoxel * volume.MinimumSpacing() / PixelSpacingAtIsocenter(item.view, roomIsocenter);
+    if (!(sigma >= LeastSmoothingPixels) || item.xray.empty())
+    {
+      result.xraySmoothingPixels.push_back(0.0);
+      continue;
+    }
+    int scale = 1;
+    const int largest = std::max<int>(1, *std::max_element(item.xray.begin(), item.xray.end()));
+    while (settings.rankedXRays && 2 * scale * largest <= 65535)
+      scale *= 2;
+    item.xray = GaussianSmoothed(item.xray, columns, rows, sigma, scale);
+    result.xraySmoothingPixels.push_back(sigma);
+  }
   return views;
 }
 
@@ -576,8 +624,8 @@ WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const Atten
     if (correlation < 0.0)
       for (uint16_t& level : item.xray)
         level = static_cast<uint16_t>(RankLevels - 1 - level);
-    working.noiseScaled.push_back(
-      NoiseScaledLevels(item.xray, item.view.Columns(), item.view.Rows(), item.mask, EntropyLevelsPerNoiseSigma, 8.0));
+    working.noiseScaled.push_back(NoiseScaledLevels(item.xray, item.view.Columns(), item.view.Rows(), item.mask,
+      EntropyLevelsPerNoiseSigma * NeighbourNoiseShare(result.xraySmoothingPixels[v]), 8.0));
     std::vector<uint16_t> values = views[v].xray;
     if (correlation < 0.0)
     {
@@ -677,7 +725,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   // are about the volume's centre at the start inside, and about the isocentre outside.
   Eigen::Vector3d isocenter = roomIsocenter;
   StereoRegistrationSettings settings = result.boneOnly ? ForBone(requested, volume) : requested;
-  const std::vector<RegistrationView> inputViews = settings.medianFilter ? MedianFiltered(givenViews) : givenViews;
+  const std::vector<RegistrationView> unsmoothedViews = settings.medianFilter ? MedianFiltered(givenViews) : givenViews;
+  const std::vector<RegistrationView> inputViews = SmoothedToTheCT(unsmoothedViews, volume, roomIsocenter, settings, result);
   if (result.boneOnly)
   {
     isocenter = MisalignedCTToRoom(plannedCTToRoom, requested.initialPose, roomIsocenter) * volume.IndexToCT() *
@@ -892,6 +941,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       fineResult.value, settings, result);
     // Equalised levels on both sides: the DRR's transmission at 12 bits is quantised where a
     // thick body lets little through, and its steps would be edges.
+    for (size_t v = 0; v < wholeViews.size(); ++v)
+      wholeViews[v].xray = unsmoothedViews[v].xray;
     StereoSimilarity atFullSize(volume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { true, 0.0 });
     atFullSize.SetCostSink(&cost);
     MeasureEdges(atFullSize, fineResult.pose, isocenter, result);

@@ -30,6 +30,12 @@ struct StereoRegistrationSettings
   /** Every X-ray's 3x3 median is what the registration sees (xpImageLevels.h, Median3x3):
    *  heavy-tailed noise decided the masks and the pose of processed pelvis X-rays (Algorithms.md). */
   bool medianFilter = true;
+  /** After the median, every X-ray is smoothed by a Gaussian whose sd at the isocentre is this
+   *  fraction of the CT's finest voxel spacing (0.41: the sd of trilinear interpolation's
+   *  kernel, the finest detail a DRR of that CT shows). Finer detail in the X-ray is noise to
+   *  the registration: on a thick body's starved interior it drowned what the masks keep and
+   *  moved the pose (Algorithms.md). 0 = off. */
+  double xraySmoothingPerVoxel = 0.41;
   /** Register the X-rays' ranks with the open field bright (RankedXRays in the .cxx): every
    *  later step sees the same image whatever the X-ray's bit depth and grey-level mapping. */
   bool rankedXRays = true;
@@ -184,6 +190,7 @@ struct StereoRegistrationResult
   std::vector<double> viewResidualMM;    ///< per view: its own 2D registration's remaining shift (mm at the isocentre)
   std::vector<double> halvesApartMM;     ///< per view: its halves' 2D registrations apart (mm at the isocentre)
   std::vector<double> validFraction;     ///< of each mask
+  std::vector<double> xraySmoothingPixels; ///< each X-ray's smoothing sd (pixels; 0: none)
   /** Per view: the median distance from the DRR's edges at the result to the X-ray's nearest edge,
    *  within the held-out region (mm at the isocentre; -1 where either has none), and the same
    *  with the DRR's edges moved EdgeShiftMM: the chance level (xpEdgeAgreement.h). */

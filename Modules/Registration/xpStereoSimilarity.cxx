@@ -26,16 +26,17 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
 
 } // namespace
 
+double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
+{
+  const double toIsocenter = (view.source - roomIsocenter).dot(view.NormalTowardsSource());
+  return view.pixelSpacing.maxCoeff() * toIsocenter / view.SourceToPanelDistance();
+}
+
 int RenderStrideFor(const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const Eigen::Vector3d& roomIsocenter)
 {
   double widestPixelAtIsocenter = 0.0;
   for (const RegistrationView& item : views)
-  {
-    const XRayView& view = item.view;
-    const double toIsocenter = (view.source - roomIsocenter).dot(view.NormalTowardsSource());
-    widestPixelAtIsocenter =
-      std::max(widestPixelAtIsocenter, view.pixelSpacing.maxCoeff() * toIsocenter / view.SourceToPanelDistance());
-  }
+    widestPixelAtIsocenter = std::max(widestPixelAtIsocenter, PixelSpacingAtIsocenter(item.view, roomIsocenter));
   return 2.0 * widestPixelAtIsocenter <= 1.1 * volume.MinimumSpacing() ? 2 : 1;
 }
 

@@ -62,6 +62,10 @@ struct SimilarityCost
   }
 };
 
+/** The width of one of the view's pixels (the wider axis) where the central ray passes the
+ *  isocentre: the panel's spacing shrunk by the magnification there. */
+VTKXPREGISTRATION_EXPORT double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter);
+
 /**
  * The render stride (StereoSimilarity::SetRenderStride) for DRRs of `volume` on these views: 2
  * where two pixels at the isocentre span no more than the CT's finest voxel spacing (within

@@ -1,7 +1,11 @@
-// The X-ray's 3x3 median: outliers go, edges stay where they are; the masked high-pass.
+// The X-ray's 3x3 median: outliers go, edges stay where they are; its smoothing to the CT's
+// resolution; the masked high-pass.
 #include "xpImageLevels.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
 
 namespace
 {
@@ -37,6 +41,57 @@ TEST(Median3x3, KeepsAnOrderedRampAndReplicatesTheBorder)
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c)
       EXPECT_EQ(median[r * columns + c], image[r * columns + c]) << "row " << r << ", column " << c;
+}
+
+TEST(GaussianSmoothed, SpreadsAnImpulseByItsSigmaAndKeepsItsSum)
+{
+  // One bright pixel in the middle of a dark field: the smoothed image holds the same sum (at
+  // the scale asked for), centred on the pixel, with a spread of sigma along rows and columns.
+  const int columns = 41, rows = 31;
+  const double sigma = 1.5;
+  std::vector<uint16_t> image(columns * rows, 0);
+  image[15 * columns + 20] = 4000;
+  const int scale = 16;
+  const std::vector<uint16_t> smoothed = xp::GaussianSmoothed(image, columns, rows, sigma, scale);
+  double sum = 0.0, meanColumn = 0.0, meanRow = 0.0, varianceColumn = 0.0, varianceRow = 0.0;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+    {
+      const double value = smoothed[r * columns + c];
+      sum += value;
+      meanColumn += value * c;
+      meanRow += value * r;
+      varianceColumn += value * (c - 20) * (c - 20);
+      varianceRow += value * (r - 15) * (r - 15);
+    }
+  EXPECT_NEAR(sum, 4000.0 * scale, 4000.0 * scale * 0.002);
+  EXPECT_NEAR(meanColumn / sum, 20.0, 1e-3);
+  EXPECT_NEAR(meanRow / sum, 15.0, 1e-3);
+  EXPECT_NEAR(std::sqrt(varianceColumn / sum), sigma, 0.05);
+  EXPECT_NEAR(std::sqrt(varianceRow / sum), sigma, 0.05);
+  EXPECT_EQ(smoothed[15 * columns + 20], *std::max_element(smoothed.begin(), smoothed.end()));
+}
+
+TEST(GaussianSmoothed, KeepsAConstantAtTheBorderAndFillsTheLevelsOfAStep)
+{
+  // A constant image stays constant up to its border (edges replicated, no darkening there).
+  // An 8-bit step from 10 to 11 smoothed at scale 256 passes through the levels between them,
+  // in order: what the scale is for.
+  const int columns = 12, rows = 5;
+  std::vector<uint16_t> flat(columns * rows, 200);
+  for (uint16_t value : xp::GaussianSmoothed(flat, columns, rows, 2.0, 4))
+    EXPECT_EQ(value, 800);
+  std::vector<uint16_t> step(columns * rows);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+      step[r * columns + c] = c < 6 ? 10 : 11;
+  const std::vector<uint16_t> smoothed = xp::GaussianSmoothed(step, columns, rows, 1.0, 256);
+  EXPECT_EQ(smoothed[2 * columns + 0], 10 * 256);
+  EXPECT_EQ(smoothed[2 * columns + columns - 1], 11 * 256);
+  for (int c = 1; c < columns; ++c)
+    EXPECT_GE(smoothed[2 * columns + c], smoothed[2 * columns + c - 1]) << "column " << c;
+  EXPECT_GT(smoothed[2 * columns + 5], 10 * 256 + 32);
+  EXPECT_LT(smoothed[2 * columns + 6], 11 * 256 - 32);
 }
 
 } // namespace

@@ -19,6 +19,7 @@ xp::RegistrationRecord FailedRecord()
   result.uncovered = { 0.0, 0.03 };
   result.viewResidualMM = { 0.02, 0.4 };
   result.validFraction = { 0.45, 0.5 };
+  result.xraySmoothingPixels = { 0.71, 0.0 };
   result.endFaces.resize(2);
   result.endFaces[1].excess[0] = 0.25;
   result.endFaces[1].facesToLeaveOut = xp::FirstSliceFace;
@@ -54,6 +55,7 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_NEAR(read.correction.pitch, written.correction.pitch, 1e-9); // 10 significant digits
   EXPECT_EQ(read.explained, written.explained);
   EXPECT_EQ(read.viewResidualMM, written.viewResidualMM);
+  EXPECT_EQ(read.xraySmoothingPixels, written.xraySmoothingPixels);
   ASSERT_EQ(read.endFaces.size(), 2u);
   EXPECT_EQ(read.endFaces[0].facesToLeaveOut, 0);
   EXPECT_EQ(read.endFaces[1].facesToLeaveOut, xp::FirstSliceFace) << "the right face, not the other";

@@ -543,6 +543,30 @@ TEST(StereoRegistration, CostsAreAccountedPerStage)
   EXPECT_LE(staged, result.drrCount);
 }
 
+TEST(StereoRegistration, SmoothsEachXRayToTheCTsVoxelAtTheIsocentre)
+{
+  // The smoothing's sd in pixels is the fraction asked for of the finest voxel (2 mm here) over
+  // the pixel's width at the isocentre; a fraction that leaves under 0.3 pixels does nothing.
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("2,-1,1,0.5,0,-0.5", "truth");
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 128, 96);
+  xp::StereoRegistrationSettings settings;
+  settings.xraySmoothingPerVoxel = 0.6;
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, settings);
+  ASSERT_EQ(result.xraySmoothingPixels.size(), 2u);
+  for (size_t v = 0; v < views.size(); ++v)
+  {
+    const double pixel = xp::PixelSpacingAtIsocenter(views[v].view, Eigen::Vector3d::Zero());
+    EXPECT_NEAR(pixel, views[v].view.pixelSpacing.maxCoeff() * 1000.0 / 1500.0, 1e-6); // SAD 1000, SID 1500
+    EXPECT_NEAR(result.xraySmoothingPixels[v], 0.6 * 2.0 / pixel, 1e-9);
+  }
+  settings.xraySmoothingPerVoxel = 0.3 * 0.9 * xp::PixelSpacingAtIsocenter(views[0].view, Eigen::Vector3d::Zero()) / 2.0;
+  const xp::StereoRegistrationResult unsmoothed =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, settings);
+  EXPECT_EQ(unsmoothed.xraySmoothingPixels, std::vector<double>(2, 0.0));
+}
+
 TEST(StereoRegistrationAcceptance, UpTo10mmAnd3DegreesAllCasesAccurate)
 {
   Scene scene;
@@ -586,8 +610,11 @@ xp::CTVolumeData LateralBar()
 
 TEST(StereoRegistrationGate, FailsWhenTheImagesDoNotFixThePose)
 {
-  // Nothing in either view changes when the bar slides along its axis: the two searches, the
-  // second started 1.5 mm further along that axis, end apart and about equally good.
+  // Nothing in either view changes when the bar slides along its axis (x): the similarity is flat
+  // along tx, and the two searches, the second started 1.5 mm further along that axis, may end
+  // apart and about equally good. Either check must say so; which one catches it depends on how
+  // far the second search runs on the flat floor (0.42 mm with the X-rays smoothed to the 4 mm
+  // voxels, under the two-search limit, while tx is uncertain by 4 mm).
   // The rays beyond the CT's end slices (air around the bar) are left out as a CT shorter than
   // the anatomy would have them: kept, they change nothing along the bar either, but the second
   // search then happens to pass by the first one's end on the flat floor and stops there, agreeing
@@ -599,8 +626,9 @@ TEST(StereoRegistrationGate, FailsWhenTheImagesDoNotFixThePose)
   const xp::StereoRegistrationResult result =
     xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), Simulate(scene, truth, 5), settings);
   EXPECT_FALSE(result.ok) << result.misalignment.ToString();
-  EXPECT_GT(result.searchDisagreementMM, 0.5);
-  EXPECT_TRUE(FailedWith(result, xp::GateCode::AmbiguousPose)) << Described(result);
+  EXPECT_TRUE(FailedWith(result, xp::GateCode::AmbiguousPose) ||
+    (FailedWith(result, xp::GateCode::Uncertain) && result.uncertainty[0] > settings.maxUncertaintyMM))
+    << Described(result);
 }
 
 /** The head phantom's central 40 % of slices: a planning CT shorter than the X-rays' field. */
