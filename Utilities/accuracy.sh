@@ -4,7 +4,8 @@
 # and the generalisation matrix (renderer x detector format x CT, wrong patients, near anatomy).
 # Usage: bash Utilities/accuracy.sh [acceptance|ablation|all|matrix] [TRIALS_PER_ROW_OR_CELL]
 #        bash Utilities/accuracy.sh matrix TRIALS [EVALUATE_OPTIONS...]   (e.g. --registration-off median)
-# MATRIX_OUT=eval/NAME writes the matrix's cells to eval/NAME-CELL (default eval/matrix-CELL).
+# MATRIX_OUT=eval/NAME writes the matrix's cells to eval/NAME-CELL (default eval/matrix-CELL);
+# MATRIX_ONLY=REGEX runs only the cells whose names match it (e.g. '^pelvis3mm-').
 # Needs build/bin/xpose, ../shared/data/ct/ (and plastimatch for the matrix); writes under eval/
 # (ignored by git).
 set -euo pipefail
@@ -43,6 +44,7 @@ header() {
 cell() { # NAME TRIALS ARGS...
   local name=$1 trials=$2
   shift 2
+  [[ -z ${MATRIX_ONLY:-} || $name =~ $MATRIX_ONLY ]] || return 0
   local dir=${MATRIX_OUT:-eval/matrix}-$name
   rm -rf "$dir"
   "$xpose" evaluate --geometry "$geometry" --approaches B --trials "$trials" --min-translation 1 --max-translation 20 \
@@ -68,12 +70,18 @@ if [ "$what" = matrix ]; then
   # The phantom at 1 mm too: the same anatomy at another voxel size (its physics X-rays flatten
   # the held-out peak where the 2 mm phantom's do not; Algorithms.md).
   [ -d eval/phantom-ct-1mm ] || "$xpose" phantom --out eval/phantom-ct-1mm --spacing 1 > /dev/null
+  # The pelvis with 3 mm slices (0.9 mm pixels), as most planning CTs are taken: coarser than
+  # the X-ray's detail along one axis (Algorithms.md, "A verdict...", 9).
+  if [ ! -f eval/pelvis-ct-3mm.nii.gz ]; then
+    plastimatch convert --input "$pelvis" --output-img eval/pelvis-ct-1mm.nii.gz > /dev/null
+    plastimatch resample --input eval/pelvis-ct-1mm.nii.gz --output eval/pelvis-ct-3mm.nii.gz --spacing "0.9 0.9 3" > /dev/null
+  fi
   thorax=../shared/data/ct/thorax-crop/ct.nii.gz
   n=${2:-10}
   matrixOptions=("${@:3}")
   echo "| cell | trials | success (ok, mTRE < 2 mm) | median mTRE of ok (mm) | median signed error of ok tx ty tz (mm) | ok beyond 2 mm | false failed (mTRE < 1 mm) | wrong-anatomy ok | median time (s) |"
   echo "|---|---|---|---|---|---|---|---|---|"
-  for ct in pelvis:$pelvis thorax:$thorax phantom:eval/phantom-ct-2mm phantom1mm:eval/phantom-ct-1mm; do
+  for ct in pelvis:$pelvis thorax:$thorax phantom:eval/phantom-ct-2mm phantom1mm:eval/phantom-ct-1mm pelvis3mm:eval/pelvis-ct-3mm.nii.gz; do
     for renderer in plastimatch clinical; do
       for format in linear12 linear16 log processed; do
         cell "${ct%%:*}-$renderer-$format" "$n" --ct "${ct#*:}" --scenario "$renderer" --detector "$format" --dose 20000
