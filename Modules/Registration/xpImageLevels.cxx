@@ -48,48 +48,6 @@ std::vector<uint16_t> Median3x3(const std::vector<uint16_t>& image, int columns,
   return out;
 }
 
-std::vector<uint16_t> GaussianSmoothed(
-  const std::vector<uint16_t>& image, int columns, int rows, double sigmaPixels, int scale)
-{
-  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigmaPixels)));
-  std::vector<float> kernel(2 * radius + 1);
-  float sum = 0.0f;
-  for (int k = -radius; k <= radius; ++k)
-    sum += kernel[k + radius] = static_cast<float>(std::exp(-0.5 * k * k / (sigmaPixels * sigmaPixels)));
-  for (float& weight : kernel)
-    weight /= sum;
-  // Rows first into floats, then columns; an edge pixel stands in for the pixels beyond it.
-  std::vector<float> alongRows(image.size());
-  for (int r = 0; r < rows; ++r)
-  {
-    const uint16_t* in = image.data() + static_cast<size_t>(r) * columns;
-    float* out = alongRows.data() + static_cast<size_t>(r) * columns;
-    for (int c = 0; c < columns; ++c)
-    {
-      float value = 0.0f;
-      for (int k = -radius; k <= radius; ++k)
-        value += kernel[k + radius] * in[std::clamp(c + k, 0, columns - 1)];
-      out[c] = value;
-    }
-  }
-  std::vector<uint16_t> smoothed(image.size());
-  std::vector<float> column(static_cast<size_t>(rows));
-  for (int c = 0; c < columns; ++c)
-  {
-    for (int r = 0; r < rows; ++r)
-      column[r] = alongRows[static_cast<size_t>(r) * columns + c];
-    for (int r = 0; r < rows; ++r)
-    {
-      float value = 0.0f;
-      for (int k = -radius; k <= radius; ++k)
-        value += kernel[k + radius] * column[std::clamp(r + k, 0, rows - 1)];
-      smoothed[static_cast<size_t>(r) * columns + c] =
-        static_cast<uint16_t>(std::min(65535.0f, std::round(value * static_cast<float>(scale))));
-    }
-  }
-  return smoothed;
-}
-
 std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask)
 {
   std::vector<long long> histogram(65536, 0);
@@ -168,26 +126,33 @@ std::vector<uint16_t> NoiseScaledLevels(const std::vector<uint16_t>& image, int 
 namespace
 {
 
-/** In-place separable Gaussian of a w x h grid, edges replicated. Each output sums its taps in
- *  the same order (left to right, then top to bottom) whichever loop computes it: the interior
- *  without the edge's clamping, the columns a row at a time, so that the compiler vectorises. */
-void Blur(std::vector<double>& grid, int w, int h, double sigma)
+/** In-place separable Gaussian of a w x h grid, edges replicated; its weights sum to 1 when
+ *  `normalized`, else their peak is 1 (a normalised convolution divides by its own weights).
+ *  Each output sums its taps in the same order (left to right, then top to bottom) whichever
+ *  loop computes it: the interior without the edge's clamping, the columns a row at a time, so
+ *  that the compiler vectorises. No wider than the grid: taps beyond it would all read its edge. */
+template <typename T>
+void Blur(std::vector<T>& grid, int w, int h, double sigma, bool normalized = false)
 {
-  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
-  std::vector<double> kernel(2 * radius + 1);
+  const int radius = std::max(1, static_cast<int>(std::min(std::ceil(3.0 * sigma), static_cast<double>(std::max(w, h)))));
+  std::vector<T> kernel(2 * radius + 1);
+  T sum = 0;
   for (int i = -radius; i <= radius; ++i)
-    kernel[i + radius] = std::exp(-0.5 * i * i / (sigma * sigma));
-  std::vector<double> out(grid.size());
+    sum += kernel[i + radius] = static_cast<T>(std::exp(-0.5 * i * i / (sigma * sigma)));
+  if (normalized)
+    for (T& weight : kernel)
+      weight /= sum;
+  std::vector<T> out(grid.size());
   for (int y = 0; y < h; ++y)
   {
-    const double* in = grid.data() + static_cast<size_t>(y) * w;
-    double* row = out.data() + static_cast<size_t>(y) * w;
+    const T* in = grid.data() + static_cast<size_t>(y) * w;
+    T* row = out.data() + static_cast<size_t>(y) * w;
     for (int x = 0; x < w; ++x)
     {
-      double s = 0.0;
+      T s = 0;
       if (x >= radius && x + radius < w)
       {
-        const double* p = in + (x - radius);
+        const T* p = in + (x - radius);
         for (int k = 0; k <= 2 * radius; ++k)
           s += kernel[k] * p[k];
       }
@@ -197,14 +162,14 @@ void Blur(std::vector<double>& grid, int w, int h, double sigma)
       row[x] = s;
     }
   }
-  std::vector<double> sums(static_cast<size_t>(w));
+  std::vector<T> sums(static_cast<size_t>(w));
   for (int y = 0; y < h; ++y)
   {
-    std::fill(sums.begin(), sums.end(), 0.0);
+    std::fill(sums.begin(), sums.end(), T(0));
     for (int k = -radius; k <= radius; ++k)
     {
-      const double weight = kernel[k + radius];
-      const double* row = out.data() + static_cast<size_t>(std::clamp(y + k, 0, h - 1)) * w;
+      const T weight = kernel[k + radius];
+      const T* row = out.data() + static_cast<size_t>(std::clamp(y + k, 0, h - 1)) * w;
       for (int x = 0; x < w; ++x)
         sums[x] += weight * row[x];
     }
@@ -213,6 +178,17 @@ void Blur(std::vector<double>& grid, int w, int h, double sigma)
 }
 
 } // namespace
+
+std::vector<uint16_t> GaussianSmoothed(
+  const std::vector<uint16_t>& image, int columns, int rows, double sigmaPixels, int scale)
+{
+  std::vector<float> grid(image.begin(), image.end());
+  Blur(grid, columns, rows, sigmaPixels, true);
+  std::vector<uint16_t> smoothed(image.size());
+  for (size_t i = 0; i < grid.size(); ++i)
+    smoothed[i] = static_cast<uint16_t>(std::min(65535.0f, std::round(grid[i] * static_cast<float>(scale))));
+  return smoothed;
+}
 
 void SubtractLowPass(float* values, const uint8_t* mask, int columns, int rows, double sigmaPixels)
 {

@@ -559,7 +559,7 @@ std::vector<RegistrationView> SmoothedToTheCT(std::vector<RegistrationView> view
     const int columns = item.view.Columns(), rows = item.view.Rows();
     const double sigma =
       settings.xraySmoothingPerVoxel * volume.MinimumSpacing() / PixelSpacingAtIsocenter(item.view, roomIsocenter);
-    if (!(sigma >= LeastSmoothingPixels) || item.xray.empty())
+    if (!(sigma >= LeastSmoothingPixels && std::isfinite(sigma)) || item.xray.empty())
     {
       result.xraySmoothingPixels.push_back(0.0);
       continue;

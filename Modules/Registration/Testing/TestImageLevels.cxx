@@ -94,6 +94,21 @@ TEST(GaussianSmoothed, KeepsAConstantAtTheBorderAndFillsTheLevelsOfAStep)
   EXPECT_LT(smoothed[2 * columns + 6], 11 * 256 - 32);
 }
 
+TEST(GaussianSmoothed, AnSDWiderThanTheImageAveragesItWhole)
+{
+  // Taps beyond the image would all read its edge: the kernel stops at the image's size, and a
+  // very wide sd leaves about the image's mean everywhere (a tiny image, not a hang or a crash).
+  const int columns = 4, rows = 3;
+  std::vector<uint16_t> image(columns * rows, 100);
+  image[0] = 1300;
+  const std::vector<uint16_t> smoothed = xp::GaussianSmoothed(image, columns, rows, 1e6, 1);
+  for (uint16_t value : smoothed)
+  {
+    EXPECT_GT(value, 100);
+    EXPECT_LT(value, 1300);
+  }
+}
+
 } // namespace
 
 // The high-pass removes what is wider than its sd and keeps what is narrower, over the mask's
