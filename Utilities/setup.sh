@@ -14,7 +14,9 @@ packages=(
   python3-vtk9 python3-dev                    # the xpose Python package, wrapped against Debian's VTK
   xvfb xauth                                  # off-screen rendering tests on a virtual display
   dicom3tools dcmtk                           # dciodvfy, dcmodify: the tests validate and edit the DICOM xpose writes
-  orthanc                                     # a real DICOM archive for the `pacs` tests
+  libcurl4-openssl-dev                        # DICOMweb over HTTP(S): TLS, authentication, redirects
+  orthanc orthanc-dicomweb                    # a real DICOM archive with DICOMweb for the `pacs` tests
+  nginx-light openssl                         # the tests' TLS proxy in front of it, with a certificate they make
   plastimatch                                 # an X-ray renderer the project did not write (evaluate --scenario plastimatch)
 )
 sudo=""

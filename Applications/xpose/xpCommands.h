@@ -136,9 +136,13 @@ struct RegisterOptions
   /** When set, an `ok` result is also written there as a DICOM Spatial Registration (reg.dcm)
    *  from the CT's Frame of Reference; the CT must be a DICOM series. */
   std::string dicomOutputDirectory;
-  /** An Orthanc archive (http://HOST:PORT) to take the CT and X-rays from, by UID, and to store
-   *  the DICOM results in; `ct` and `xrays` are then left empty. */
+  /** A DICOMweb service root (http(s)://HOST:PORT/PATH) to take the CT and X-rays from, by UID,
+   *  and to store the DICOM results in; `ct` and `xrays` are then left empty. */
   std::string pacs;
+  /** With pacs: a private file holding user:password or token:VALUE; empty: the environment's
+   *  XPOSE_PACS_USER/XPOSE_PACS_PASSWORD or XPOSE_PACS_TOKEN, if any. */
+  std::string pacsCredentials;
+  std::string caFile;               ///< with an https pacs: the CAs to trust (PEM); empty: the system's
   std::string study;                ///< with pacs: the study whose one CT series is registered
   std::string ctSeries;             ///< with pacs: or the CT series by UID
   std::vector<std::string> xrayInstances; ///< with pacs: the X-rays' SOP Instance UIDs, in imager order

@@ -251,7 +251,13 @@ CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
   registerCommand->add_option("--dicom-out", options.dicomOutputDirectory,
     "Also write an ok result as a DICOM Spatial Registration (reg.dcm) here; needs a DICOM CT");
   registerCommand->add_option("--pacs", options.pacs,
-    "Orthanc archive http://HOST:PORT: take the CT and X-rays from it by UID, store the DICOM results in it");
+    "DICOMweb archive http(s)://HOST:PORT/PATH (e.g. Orthanc's .../dicom-web): take the CT and X-rays from it by UID, "
+    "store the DICOM results in it");
+  registerCommand->add_option("--pacs-credentials", options.pacsCredentials,
+    "With --pacs: a file only its owner can read, one line user:password or token:VALUE (default: the environment's "
+    "XPOSE_PACS_USER and XPOSE_PACS_PASSWORD, or XPOSE_PACS_TOKEN)");
+  registerCommand->add_option("--ca-file", options.caFile, "With an https --pacs: the certificate authorities to trust (PEM; "
+    "default: the system's)");
   registerCommand->add_option("--study", options.study, "With --pacs: the study whose one CT series is registered");
   registerCommand->add_option("--ct-series", options.ctSeries, "With --pacs: the CT series (Series Instance UID)");
   registerCommand->add_option("--xray-instance", options.xrayInstances,

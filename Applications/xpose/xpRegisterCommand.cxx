@@ -14,7 +14,7 @@
 #include "xpImageRows.h"
 #include "xpImageGeometry.h"
 #include "xpRegistrationRecord.h"
-#include "xpOrthanc.h"
+#include "xpDICOMwebArchive.h"
 #include "xpRTImage.h"
 #include "xpXRayGeometryTags.h"
 #include "xpSpatialRegistration.h"
@@ -353,7 +353,7 @@ void WarnOfGeometryTags(const RegisterOptions& options, const DRRSetup& setup)
  * --pacs: the CT series and the X-rays fetched from the archive into OUT/pacs-inputs (kept, so
  * that `xpose report` can rebuild the pictures), and the options that register them from there.
  */
-RegisterOptions FetchFromArchive(const RegisterOptions& options, const OrthancArchive& archive)
+RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMwebArchive& archive)
 {
   if (!options.ct.empty() || !options.xrays.empty())
     throw InputError("--pacs", "takes the CT and the X-rays from the archive: leave out --ct and --xray");
@@ -366,6 +366,7 @@ RegisterOptions FetchFromArchive(const RegisterOptions& options, const OrthancAr
   const std::string series = options.ctSeries.empty() ? archive.CTSeriesOfStudy(options.study) : options.ctSeries;
   RegisterOptions local = options;
   local.pacs.clear();
+  local.pacsCredentials.clear();
   const std::string folder = options.outputDirectory + "/pacs-inputs";
   std::filesystem::remove_all(folder);
   std::filesystem::create_directories(folder + "/ct");
@@ -380,20 +381,26 @@ RegisterOptions FetchFromArchive(const RegisterOptions& options, const OrthancAr
   if (local.dicomOutputDirectory.empty())
     local.dicomOutputDirectory = options.outputDirectory + "/dicom";
   std::printf("pacs: CT series %s and %zu X-rays fetched from %s into %s\n", series.c_str(), local.xrays.size(),
-    options.pacs.c_str(), folder.c_str());
+    archive.Root().c_str(), folder.c_str());
   return local;
 }
 
-/** The DICOM results (REG if the result is ok, RT Image DRRs) stored in the archive, all or none. */
-void StoreInArchive(const OrthancArchive& archive, const std::string& dicomDirectory)
+/**
+ * The DICOM results stored in the archive: the RT Image DRRs and the report's Secondary Capture,
+ * then the REG (written for an ok result only), last: an archive cannot take an instance back, so
+ * the REG that a planning system acts on is stored only when everything it refers to was.
+ */
+void StoreInArchive(const DICOMwebArchive& archive, const std::string& dicomDirectory)
 {
   std::vector<std::string> files;
   for (const auto& entry : std::filesystem::directory_iterator(dicomDirectory))
-    if (entry.path().extension() == ".dcm")
+    if (entry.path().extension() == ".dcm" && entry.path().filename() != "reg.dcm")
       files.push_back(entry.path().string());
   std::sort(files.begin(), files.end());
+  if (std::filesystem::exists(dicomDirectory + "/reg.dcm"))
+    files.push_back(dicomDirectory + "/reg.dcm");
   archive.Store(files);
-  std::printf("pacs: %zu DICOM objects stored in the archive\n", files.size());
+  std::printf("pacs: %zu DICOM objects stored in %s\n", files.size(), archive.Root().c_str());
 }
 
 void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)
@@ -412,7 +419,7 @@ int RunRegister(const RegisterOptions& options)
 {
   if (!options.pacs.empty())
   {
-    const OrthancArchive archive(options.pacs);
+    const DICOMwebArchive archive(options.pacs, ResolveArchiveAccess(options.pacsCredentials, options.caFile));
     const RegisterOptions local = FetchFromArchive(options, archive);
     const int code = RunRegister(local);
     StoreInArchive(archive, local.dicomOutputDirectory);

@@ -1,12 +1,18 @@
-// A registration through a real archive (Orthanc, started here on loopback with a temporary
-// configuration and storage): the CT and X-rays are fetched by UID, the REG and the RT Images go
-// back to the same study, and what comes back equals what was written. Label: pacs.
+// A registration through a real archive as a hospital runs one: Orthanc with its DICOMweb plugin
+// and a password, behind an nginx TLS proxy with a certificate made here, all on loopback with
+// temporary configurations. The CT and X-rays are fetched by UID, the results go back to the
+// study (the REG last), and the pose equals that of the same files given on the command line.
+// Wrong credentials, an untrusted certificate, an unreachable host and an archive that answers
+// garbage are clear errors; no credential appears in any output. Label: pacs.
+#include "xpArchiveAccess.h"
 #include "xpCommands.h"
 #include "xpDICOMSeries.h"
 #include "xpDICOMSeriesWriter.h"
+#include "xpDICOMwebArchive.h"
 #include "xpError.h"
-#include "xpOrthanc.h"
 #include "xpWholeFile.h"
+
+#include <vtk_jsoncpp.h>
 
 #include <chrono>
 #include <csignal>
@@ -15,7 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
-#include <sstream>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -24,19 +30,14 @@ namespace
 {
 
 const std::string Geometry = std::string(XP_SOURCE_DIR) + "/Data/geometry/stereo-oblique-90.json";
+const std::string OrthancDICOMweb = "/usr/share/orthanc/plugins/libOrthancDicomWeb.so";
+const std::string User = "radiology", Password = "Xq7-secret-word-9Lz";
 
-std::string Contents(const std::string& path)
-{
-  return xp::ReadWholeFile(path);
-}
-
-/** The SOP Instance UID of a file xpose wrote (ScanCTSeries-free: the RT Image's own tag). */
+/** The SOP Instance UID of a file xpose wrote (explicit VR little endian: tag, "UI", length). */
 std::string InstanceUID(const std::string& path)
 {
-  // xpose writes explicit VR little endian: (0008,0018) UI, a 2-byte length, the value.
-  const std::string bytes = Contents(path);
-  const std::string tag("\x08\x00\x18\x00UI", 6);
-  const size_t at = bytes.find(tag);
+  const std::string bytes = xp::ReadWholeFile(path);
+  const size_t at = bytes.find(std::string("\x08\x00\x18\x00UI", 6));
   if (at == std::string::npos)
     return "";
   const size_t length = static_cast<unsigned char>(bytes[at + 6]) | static_cast<unsigned char>(bytes[at + 7]) << 8;
@@ -46,36 +47,93 @@ std::string InstanceUID(const std::string& path)
   return uid;
 }
 
-/** An Orthanc server of its own: temporary storage, HTTP on a free loopback port, stopped after. */
+/** Every file under `folder` (recursively) whose bytes hold `text`. */
+std::vector<std::string> FilesHolding(const std::string& folder, const std::string& text)
+{
+  std::vector<std::string> found;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(folder))
+    if (entry.is_regular_file() && xp::ReadWholeFile(entry.path().string()).find(text) != std::string::npos)
+      found.push_back(entry.path().string());
+  return found;
+}
+
+pid_t Start(const std::string& log, const std::vector<std::string>& command)
+{
+  const pid_t child = fork();
+  if (child == 0)
+  {
+    std::freopen(log.c_str(), "w", stdout);
+    std::freopen(log.c_str(), "a", stderr);
+    std::vector<char*> argv;
+    for (const std::string& word : command)
+      argv.push_back(const_cast<char*>(word.c_str()));
+    argv.push_back(nullptr);
+    execvp(argv[0], argv.data());
+    _exit(127);
+  }
+  return child;
+}
+
+void Stop(pid_t& child)
+{
+  if (child > 0)
+  {
+    kill(child, SIGTERM);
+    waitpid(child, nullptr, 0);
+  }
+  child = 0;
+}
+
+/** Orthanc (DICOMweb, a registered user, loopback only) behind nginx serving HTTPS. */
 class ArchiveTest : public ::testing::Test
 {
 protected:
   void SetUp() override
   {
-    if (std::system("command -v Orthanc > /dev/null 2>&1") != 0)
-      GTEST_SKIP() << "Orthanc (Debian package orthanc) not installed: the archive tests are skipped";
-    this->Folder = "archive-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name());
+    for (const char* tool : { "Orthanc", "nginx", "openssl" })
+      if (std::system(("command -v " + std::string(tool) + " > /dev/null 2>&1").c_str()) != 0)
+        GTEST_SKIP() << tool << " is not installed (Debian orthanc, nginx-light, openssl): the archive tests are skipped";
+    if (!std::filesystem::exists(OrthancDICOMweb))
+      GTEST_SKIP() << OrthancDICOMweb << " missing (Debian orthanc-dicomweb): the archive tests are skipped";
+    this->Folder = std::filesystem::absolute("archive-" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     std::filesystem::remove_all(this->Folder);
     std::filesystem::create_directories(this->Folder + "/storage");
-    this->Port = 20000 + static_cast<int>(getpid() % 20000);
+    std::filesystem::create_directories(this->Folder + "/nginx");
+    this->HTTPPort = 20000 + static_cast<int>(getpid() % 10000) * 2;
+    this->TLSPort = this->HTTPPort + 1;
+    ASSERT_EQ(std::system(("openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 -addext subjectAltName=IP:127.0.0.1 "
+                           "-keyout " + this->Folder + "/key.pem -out " + this->Folder + "/cert.pem > " + this->Folder +
+                           "/openssl.log 2>&1").c_str()), 0);
     std::ofstream(this->Folder + "/orthanc.json")
       << "{ \"Name\": \"xpose-test\", \"StorageDirectory\": \"" << this->Folder << "/storage\", \"IndexDirectory\": \""
-      << this->Folder << "/storage\", \"HttpPort\": " << this->Port
-      << ", \"DicomServerEnabled\": false, \"RemoteAccessAllowed\": false, \"AuthenticationEnabled\": false }\n";
-    this->Server = fork();
-    if (this->Server == 0)
-    {
-      std::freopen((this->Folder + "/orthanc.log").c_str(), "w", stdout);
-      std::freopen((this->Folder + "/orthanc.log").c_str(), "a", stderr);
-      execlp("Orthanc", "Orthanc", (this->Folder + "/orthanc.json").c_str(), static_cast<char*>(nullptr));
-      _exit(127);
-    }
-    this->Url = "http://127.0.0.1:" + std::to_string(this->Port);
-    for (int attempt = 0; attempt < 100; ++attempt)
+      << this->Folder << "/storage\", \"HttpPort\": " << this->HTTPPort
+      << ", \"DicomServerEnabled\": false, \"RemoteAccessAllowed\": false, \"AuthenticationEnabled\": true,"
+      << " \"RegisteredUsers\": { \"" << User << "\": \"" << Password << "\" }, \"Plugins\": [ \"" << OrthancDICOMweb
+      << "\" ], \"DicomWeb\": { \"Enable\": true, \"Root\": \"/dicom-web/\" } }\n";
+    // HTTPS as Orthanc's documentation advises: a reverse proxy in front of it. /garbage/ answers
+    // what no archive would.
+    std::ofstream(this->Folder + "/nginx.conf")
+      << "daemon off; worker_processes 1; pid " << this->Folder << "/nginx/nginx.pid; error_log " << this->Folder << "/nginx/error.log;\n"
+      << (getuid() == 0 ? "user root;\n" : "") << "events { worker_connections 64; }\n"
+      << "http { access_log off; client_max_body_size 0; client_body_temp_path " << this->Folder << "/nginx/body; proxy_temp_path "
+      << this->Folder << "/nginx/proxy; fastcgi_temp_path " << this->Folder << "/nginx/fastcgi; uwsgi_temp_path " << this->Folder
+      << "/nginx/uwsgi; scgi_temp_path " << this->Folder << "/nginx/scgi;\n"
+      << "  server { listen 127.0.0.1:" << this->TLSPort << " ssl; ssl_certificate " << this->Folder << "/cert.pem; ssl_certificate_key "
+      << this->Folder << "/key.pem;\n"
+      << "    location /dicom-web/ { proxy_pass http://127.0.0.1:" << this->HTTPPort << "; proxy_read_timeout 300s; }\n"
+      << "    location /garbage/ { default_type application/dicom+json; return 200 'this is not DICOM JSON'; } } }\n";
+    this->Orthanc = Start(this->Folder + "/orthanc.log", { "Orthanc", this->Folder + "/orthanc.json" });
+    this->Nginx = Start(this->Folder + "/nginx.log",
+      { "nginx", "-p", this->Folder + "/nginx", "-c", this->Folder + "/nginx.conf", "-e", this->Folder + "/nginx/error.log" });
+    this->Url = "https://127.0.0.1:" + std::to_string(this->TLSPort) + "/dicom-web";
+    this->CredentialsFile = this->Folder + "/credentials";
+    std::ofstream(this->CredentialsFile) << User << ":" << Password << "\n";
+    chmod(this->CredentialsFile.c_str(), 0600);
+    for (int attempt = 0; attempt < 150; ++attempt)
     {
       try
       {
-        xp::OrthancArchive(this->Url).CheckReachable();
+        this->Archive().CheckReachable();
         return;
       }
       catch (const xp::Error&)
@@ -83,38 +141,50 @@ protected:
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
       }
     }
-    GTEST_SKIP() << "Orthanc did not start on port " << this->Port << " (see " << this->Folder << "/orthanc.log)";
+    FAIL() << "the archive did not answer at " << this->Url << " (see " << this->Folder << "/orthanc.log and nginx/error.log)";
   }
 
   void TearDown() override
   {
-    if (this->Server > 0)
-    {
-      kill(this->Server, SIGTERM);
-      waitpid(this->Server, nullptr, 0);
-    }
+    Stop(this->Nginx);
+    Stop(this->Orthanc);
   }
 
-  std::string Folder, Url;
-  int Port = 0;
-  pid_t Server = 0;
+  xp::ArchiveAccess Access() const
+  {
+    xp::ArchiveAccess access = xp::ResolveArchiveAccess(this->CredentialsFile, this->Folder + "/cert.pem");
+    access.connectAttempts = 1;
+    return access;
+  }
+  xp::DICOMwebArchive Archive() const { return xp::DICOMwebArchive(this->Url, this->Access()); }
+
+  /** Stores every file of `folder` (sorted) in the archive. */
+  void StoreFolder(const std::string& folder) const
+  {
+    std::vector<std::string> files;
+    for (const auto& entry : std::filesystem::directory_iterator(folder))
+      files.push_back(entry.path().string());
+    std::sort(files.begin(), files.end());
+    this->Archive().Store(files);
+  }
+
+  std::string Folder, Url, CredentialsFile;
+  int HTTPPort = 0, TLSPort = 0;
+  pid_t Orthanc = 0, Nginx = 0;
 };
 
-/** Stores every file of `folder` (sorted) in the archive. */
-void StoreFolder(const xp::OrthancArchive& archive, const std::string& folder)
+Json::Value ReadJSON(const std::string& path)
 {
-  std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::directory_iterator(folder))
-    files.push_back(entry.path().string());
-  std::sort(files.begin(), files.end());
-  archive.Store(files);
+  Json::Value value;
+  std::ifstream in(path);
+  in >> value;
+  return value;
 }
 
 } // namespace
 
-TEST_F(ArchiveTest, RegistersAStudyHeldOnlyInTheArchiveAndStoresTheResultsBack)
+TEST_F(ArchiveTest, RegistersAStudyHeldOnlyInTheArchiveOverTLSAndStoresTheResultsBack)
 {
-  const xp::OrthancArchive archive(this->Url);
   // The study: the phantom CT, and two X-rays (RT Image DRRs of a known misalignment).
   const std::string local = this->Folder + "/local";
   xp::PhantomOptions phantom;
@@ -128,42 +198,102 @@ TEST_F(ArchiveTest, RegistersAStudyHeldOnlyInTheArchiveAndStoresTheResultsBack)
   drr.outputDirectory = local + "/drr";
   drr.dicomOutputDirectory = local + "/xrays";
   ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
-  StoreFolder(archive, phantom.outputDirectory);
-  StoreFolder(archive, drr.dicomOutputDirectory);
+  this->StoreFolder(phantom.outputDirectory);
+  this->StoreFolder(drr.dicomOutputDirectory);
   const xp::CTSeriesInfo ct = xp::ScanCTSeries(phantom.outputDirectory);
   const std::vector<std::string> xrays = { InstanceUID(drr.dicomOutputDirectory + "/drr_A.dcm"),
     InstanceUID(drr.dicomOutputDirectory + "/drr_B.dcm") };
+  ASSERT_FALSE(xrays[0].empty());
+
+  // The same files from the command line, for the pose to compare with.
+  xp::RegisterOptions direct;
+  direct.ct = phantom.outputDirectory;
+  direct.xrays = { drr.dicomOutputDirectory + "/drr_A.dcm", drr.dicomOutputDirectory + "/drr_B.dcm" };
+  direct.geometry = Geometry;
+  direct.size = "256x192";
+  direct.outputDirectory = this->Folder + "/direct";
+  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(direct); }), xp::ExitOk);
   std::filesystem::remove_all(local); // from here on, the study is in the archive only
 
-  xp::RegisterOptions options;
-  options.pacs = this->Url;
-  options.study = ct.studyInstanceUID;
-  options.xrayInstances = xrays;
-  ASSERT_FALSE(xrays[0].empty());
-  options.geometry = Geometry;
-  options.size = "256x192";
-  options.outputDirectory = this->Folder + "/result";
-  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+  // The xpose process, as a user runs it: credentials from the environment, the CA given.
+  const std::string out = this->Folder + "/result", log = this->Folder + "/register.log";
+  const std::string command = "XPOSE_PACS_USER='" + User + "' XPOSE_PACS_PASSWORD='" + Password + "' '" + XP_XPOSE_EXECUTABLE +
+    "' register --pacs " + this->Url + " --ca-file " + this->Folder + "/cert.pem --study " + ct.studyInstanceUID +
+    " --xray-instance " + xrays[0] + " --xray-instance " + xrays[1] + " --geometry " + Geometry + " --size 256x192 --out-dir " + out +
+    " --report " + out + "/report > " + log + " 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << xp::ReadWholeFile(log);
 
   // The study now holds the REG and the RT Images, and the REG that comes back is the one written.
   int regs = 0, rtImages = 0;
-  for (const xp::ArchivedSeries& series : archive.SeriesOfStudy(ct.studyInstanceUID))
+  for (const xp::ArchivedSeries& series : this->Archive().SeriesOfStudy(ct.studyInstanceUID))
   {
     regs += series.modality == "REG";
     rtImages += series.modality == "RTIMAGE" ? series.instances : 0;
   }
   EXPECT_EQ(regs, 1);
   EXPECT_EQ(rtImages, 4); // the two X-rays and the two DRRs of the result
-  const std::string written = options.outputDirectory + "/dicom/reg.dcm";
-  archive.FetchInstance(InstanceUID(written), this->Folder + "/reg-back.dcm");
-  EXPECT_EQ(Contents(this->Folder + "/reg-back.dcm"), Contents(written));
+  const std::string written = out + "/dicom/reg.dcm";
+  this->Archive().FetchInstance(InstanceUID(written), this->Folder + "/reg-back.dcm");
+  EXPECT_EQ(xp::ReadWholeFile(this->Folder + "/reg-back.dcm"), xp::ReadWholeFile(written));
   for (const std::string& xray : xrays) // the REG names the X-rays it was found from
-    EXPECT_NE(Contents(written).find(xray), std::string::npos) << xray;
+    EXPECT_NE(xp::ReadWholeFile(written).find(xray), std::string::npos) << xray;
+
+  // The pose from the archive is the pose from the files.
+  const Json::Value fetched = ReadJSON(out + "/result.json"), given = ReadJSON(direct.outputDirectory + "/result.json");
+  EXPECT_EQ(fetched["status"].asString(), "ok");
+  for (const char* key : { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" })
+    EXPECT_EQ(fetched["misalignment"][key].asDouble(), given["misalignment"][key].asDouble()) << key;
+
+  // No credential in anything written or printed.
+  EXPECT_EQ(FilesHolding(out, Password), std::vector<std::string>());
+  EXPECT_EQ(xp::ReadWholeFile(log).find(Password), std::string::npos);
 }
 
-TEST_F(ArchiveTest, AmbiguousOrMissingCTsUnreachableArchivesAndRefusedFilesAreClearErrors)
+TEST_F(ArchiveTest, WrongCredentialsUntrustedCertificatesUnreachableHostsAndGarbageAreClearErrors)
 {
-  const xp::OrthancArchive archive(this->Url);
+  xp::RegisterOptions options;
+  options.pacs = this->Url;
+  options.caFile = this->Folder + "/cert.pem";
+  options.pacsCredentials = this->CredentialsFile;
+  options.ctSeries = "1.2.826.0.1.3680043.2.1143.77.2";
+  options.xrayInstances = { "1.2.3", "1.2.4" };
+  options.geometry = Geometry;
+  const auto refused = [&](const std::string& name, const std::string& expected)
+  {
+    options.outputDirectory = this->Folder + "/" + name;
+    testing::internal::CaptureStderr();
+    const int code = xp::GuardedRun("register", [&] { return xp::RunRegister(options); });
+    const std::string message = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(code, xp::ExitBadInput) << name << ": " << message;
+    EXPECT_NE(message.find(expected), std::string::npos) << name << ": " << message;
+    EXPECT_EQ(message.find(Password), std::string::npos) << name;
+    EXPECT_FALSE(std::filesystem::exists(options.outputDirectory + "/result.json")) << name;
+  };
+  // A series the archive does not hold.
+  refused("no-series", "holds 0 series");
+  // A wrong password: the archive says 401, and the message says so without the password.
+  const std::string wrong = this->Folder + "/wrong-credentials";
+  std::ofstream(wrong) << User << ":not-" << Password << "\n";
+  chmod(wrong.c_str(), 0600);
+  options.pacsCredentials = wrong;
+  refused("wrong-password", "refused the credentials (HTTP 401)");
+  options.pacsCredentials = this->CredentialsFile;
+  // The proxy's certificate without --ca-file: not in the system's store.
+  options.caFile.clear();
+  refused("untrusted", "not trusted");
+  options.caFile = this->Folder + "/cert.pem";
+  // Nothing listens; a URL without the service root; an answer that is not DICOM JSON.
+  options.pacs = "https://127.0.0.1:" + std::to_string(this->TLSPort + 2) + "/dicom-web";
+  refused("unreachable", "no archive answers there");
+  options.pacs = "https://127.0.0.1:" + std::to_string(this->TLSPort);
+  refused("no-root", "/dicom-web");
+  options.pacs = "https://127.0.0.1:" + std::to_string(this->TLSPort) + "/garbage";
+  refused("garbage", "not as a DICOMweb service");
+}
+
+TEST_F(ArchiveTest, AmbiguousOrMissingCTsAndRefusedFilesAreReported)
+{
+  const xp::DICOMwebArchive archive = this->Archive();
   // Two CT series in one study: the error lists both.
   xp::CTVolumeData volume;
   volume.dimensions = { 8, 6, 3 };
@@ -178,9 +308,9 @@ TEST_F(ArchiveTest, AmbiguousOrMissingCTsUnreachableArchivesAndRefusedFilesAreCl
   std::filesystem::create_directories(this->Folder + "/two");
   xp::WriteCTSeries(volume, this->Folder + "/one", first);
   xp::WriteCTSeries(volume, this->Folder + "/two", second);
-  StoreFolder(archive, this->Folder + "/one");
+  this->StoreFolder(this->Folder + "/one");
   EXPECT_EQ(archive.CTSeriesOfStudy(first.studyInstanceUID), first.seriesInstanceUID);
-  StoreFolder(archive, this->Folder + "/two");
+  this->StoreFolder(this->Folder + "/two");
   try
   {
     archive.CTSeriesOfStudy(first.studyInstanceUID);
@@ -192,25 +322,33 @@ TEST_F(ArchiveTest, AmbiguousOrMissingCTsUnreachableArchivesAndRefusedFilesAreCl
     EXPECT_NE(std::string(e.what()).find(second.seriesInstanceUID), std::string::npos) << e.what();
   }
   EXPECT_THROW(archive.CTSeriesOfStudy("1.2.3.4"), xp::InputError); // no such study
+  // The series comes back whole: three slices.
+  std::filesystem::create_directories(this->Folder + "/fetched");
+  EXPECT_EQ(archive.FetchSeries(first.seriesInstanceUID, this->Folder + "/fetched").size(), 3u);
 
-  // A refused file: the files stored before it in the same call are taken back.
+  // A refused file stops the store: the error lists what was stored and what was not, and the
+  // file after it is not sent.
   std::filesystem::create_directories(this->Folder + "/batch");
   xp::CTSeriesWriteOptions third = first;
   third.seriesInstanceUID = "1.2.826.0.1.3680043.2.1143.77.4";
   const std::vector<std::string> good = xp::WriteCTSeries(volume, this->Folder + "/batch", third);
-  std::ofstream(this->Folder + "/batch/not-dicom.dcm") << "not a DICOM file";
-  EXPECT_THROW(archive.Store({ good[0], good[1], this->Folder + "/batch/not-dicom.dcm", good[2] }), xp::Error);
+  const std::string bad = this->Folder + "/batch/not-dicom.dcm";
+  std::ofstream(bad) << "not a DICOM file";
+  try
+  {
+    archive.Store({ good[0], bad, good[1] });
+    ADD_FAILURE() << "a file that is not DICOM was stored";
+  }
+  catch (const xp::Error& e)
+  {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("Stored: " + std::filesystem::path(good[0]).filename().string()), std::string::npos) << message;
+    EXPECT_NE(message.find("not stored: not-dicom.dcm " + std::filesystem::path(good[1]).filename().string()), std::string::npos)
+      << message;
+  }
+  int instances = -1;
   for (const xp::ArchivedSeries& series : archive.SeriesOfStudy(first.studyInstanceUID))
-    EXPECT_NE(series.seriesInstanceUID, third.seriesInstanceUID) << "a half-stored series was left";
-
-  // Nothing listens: a clear error, exit code 2.
-  xp::RegisterOptions options;
-  options.pacs = "http://127.0.0.1:" + std::to_string(this->Port + 1);
-  options.ctSeries = first.seriesInstanceUID;
-  options.xrayInstances = { "1.2.3", "1.2.4" };
-  options.geometry = Geometry;
-  options.outputDirectory = this->Folder + "/unreachable";
-  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput);
-  options.pacs = "ftp://somewhere";
-  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput);
+    if (series.seriesInstanceUID == third.seriesInstanceUID)
+      instances = series.instances;
+  EXPECT_EQ(instances, 1);
 }
