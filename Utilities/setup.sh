@@ -15,6 +15,7 @@ packages=(
   xvfb xauth                                  # off-screen rendering tests on a virtual display
   dicom3tools dcmtk                           # dciodvfy, dcmodify: the tests validate and edit the DICOM xpose writes
   libcurl4-openssl-dev                        # DICOMweb over HTTP(S): TLS, authentication, redirects
+  libdcmtk-dev                                # DIMSE (C-FIND, C-GET, C-STORE, the listen node) through dcmtk
   orthanc orthanc-dicomweb                    # a real DICOM archive with DICOMweb for the `pacs` tests
   nginx-light openssl                         # the tests' TLS proxy in front of it, with a certificate they make
   plastimatch                                 # an X-ray renderer the project did not write (evaluate --scenario plastimatch)

@@ -136,9 +136,11 @@ struct RegisterOptions
   /** When set, an `ok` result is also written there as a DICOM Spatial Registration (reg.dcm)
    *  from the CT's Frame of Reference; the CT must be a DICOM series. */
   std::string dicomOutputDirectory;
-  /** A DICOMweb service root (http(s)://HOST:PORT/PATH) to take the CT and X-rays from, by UID,
-   *  and to store the DICOM results in; `ct` and `xrays` are then left empty. */
+  /** The archive to take the CT and X-rays from, by UID, and to store the DICOM results in: a
+   *  DICOMweb service root (http(s)://HOST:PORT/PATH) or a DIMSE node (dicom://CALLED_AET@HOST:PORT);
+   *  `ct` and `xrays` are then left empty. */
   std::string pacs;
+  std::string aet = "XPOSE";        ///< with a dicom:// pacs: xpose's own (calling) AE title
   /** With pacs: a private file holding user:password or token:VALUE; empty: the environment's
    *  XPOSE_PACS_USER/XPOSE_PACS_PASSWORD or XPOSE_PACS_TOKEN, if any. */
   std::string pacsCredentials;
@@ -155,6 +157,18 @@ struct TrackOptions
   std::vector<std::string> frames;  ///< per frame "A.tif,B.tif": one X-ray per imager, in the geometry's order
   std::string outputDirectory;      ///< poses.csv, poses.json, frame-NNNN/result.json
   std::string reportDirectory;      ///< when set, each frame's report in DIR/frame-NNNN/
+};
+
+/** `xpose listen`: a DICOM storage node that registers each study's CT and X-ray pair. */
+struct ListenOptions
+{
+  RegisterOptions registration;     ///< geometry, registration and gate options; inputs and outputs are per study
+  int port = 104;
+  std::string aet = "XPOSE";        ///< the node's AE title
+  std::vector<std::string> allowAET; ///< calling AE titles admitted; empty: any
+  std::string forward;              ///< dicom://AET@HOST:PORT: where an ok result's REG is sent
+  double settle = 10.0;             ///< seconds without a new instance before a study is registered
+  std::string outputDirectory;      ///< DIR/STUDY_UID/ per study
 };
 
 struct ReportOptions
@@ -241,6 +255,9 @@ int RunRelative(const RelativeOptions& options);
  *  --initial-pose, the global search or the planned set-up); writes poses.csv and poses.json.
  *  ExitOk when every frame is ok, ExitRegistrationFailed when one is not. */
 int RunTrack(const TrackOptions& options);
+/** Serves until SIGTERM or SIGINT; each study that holds one CT series and one X-ray per imager
+ *  (assigned by their geometry tags) is registered when it goes quiet, again for each new pair. */
+int RunListen(const ListenOptions& options);
 
 /** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
 std::pair<int, int> ParseSize(const std::string& text, const std::string& field);

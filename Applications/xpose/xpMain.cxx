@@ -240,6 +240,24 @@ CLI::App* AddTrackCommand(CLI::App& app, xp::TrackOptions& options)
   return track;
 }
 
+CLI::App* AddListenCommand(CLI::App& app, xp::ListenOptions& options)
+{
+  CLI::App* listen = app.add_subcommand("listen",
+    "A DICOM storage node: register each study's CT and X-ray pair as they arrive, send the REG on");
+  AddRegistrationOptions(listen, options.registration);
+  // Its inputs arrive over the network; a volume's own options make no sense here.
+  for (const char* name : { "--ct", "--series", "--voxel-size", "--global-search", "--initial-pose" })
+    listen->remove_option(listen->get_option(name));
+  listen->add_option("--port", options.port, "TCP port to serve DICOM on")->required();
+  listen->add_option("--aet", options.aet, "The node's AE title (the called AE title senders use)")->capture_default_str();
+  listen->add_option("--allow-aet", options.allowAET, "Calling AE titles admitted (default: any)");
+  listen->add_option("--forward", options.forward, "Send an ok result's REG to dicom://AET@HOST:PORT");
+  listen->add_option("--settle", options.settle, "Seconds without a new instance before a study is registered")
+    ->capture_default_str();
+  listen->add_option("--out-dir", options.outputDirectory, "DIR/STUDY_UID/: received/, result.json, report/, dicom/")->required();
+  return listen;
+}
+
 CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
 {
   CLI::App* registerCommand = app.add_subcommand("register", "Find the patient's 6-DOF misalignment from the stereo X-rays");
@@ -251,8 +269,9 @@ CLI::App* AddRegisterCommand(CLI::App& app, xp::RegisterOptions& options)
   registerCommand->add_option("--dicom-out", options.dicomOutputDirectory,
     "Also write an ok result as a DICOM Spatial Registration (reg.dcm) here; needs a DICOM CT");
   registerCommand->add_option("--pacs", options.pacs,
-    "DICOMweb archive http(s)://HOST:PORT/PATH (e.g. Orthanc's .../dicom-web): take the CT and X-rays from it by UID, "
-    "store the DICOM results in it");
+    "Archive: DICOMweb http(s)://HOST:PORT/PATH (e.g. Orthanc's .../dicom-web) or DIMSE dicom://CALLED_AET@HOST:PORT; "
+    "take the CT and X-rays from it by UID, store the DICOM results in it");
+  registerCommand->add_option("--aet", options.aet, "With a dicom:// --pacs: xpose's own AE title")->capture_default_str();
   registerCommand->add_option("--pacs-credentials", options.pacsCredentials,
     "With --pacs: a file only its owner can read, one line user:password or token:VALUE (default: the environment's "
     "XPOSE_PACS_USER and XPOSE_PACS_PASSWORD, or XPOSE_PACS_TOKEN)");
@@ -352,6 +371,8 @@ int main(int argc, char** argv)
   CLI::App* registerCommand = AddRegisterCommand(app, reg);
   xp::TrackOptions track;
   CLI::App* trackCommand = AddTrackCommand(app, track);
+  xp::ListenOptions listen;
+  CLI::App* listenCommand = AddListenCommand(app, listen);
   xp::ReportOptions report;
   CLI::App* reportCommand = AddReportCommand(app, report);
   xp::RelativeOptions relative;
@@ -374,6 +395,8 @@ int main(int argc, char** argv)
   }
   if (reportCommand->parsed())
     return xp::GuardedRun("report", [&] { return xp::RunReport(report); });
+  if (listenCommand->parsed())
+    return xp::GuardedRun("listen", [&] { return xp::RunListen(listen); });
   if (relativeCommand->parsed())
     return xp::GuardedRun("relative", [&] { return xp::RunRelative(relative); });
   if (evaluateCommand->parsed())

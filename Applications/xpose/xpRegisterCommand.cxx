@@ -14,7 +14,7 @@
 #include "xpImageRows.h"
 #include "xpImageGeometry.h"
 #include "xpRegistrationRecord.h"
-#include "xpDICOMwebArchive.h"
+#include "xpDICOMArchive.h"
 #include "xpRTImage.h"
 #include "xpXRayGeometryTags.h"
 #include "xpSpatialRegistration.h"
@@ -31,6 +31,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <sys/stat.h>
 #include <sstream>
@@ -353,7 +354,7 @@ void WarnOfGeometryTags(const RegisterOptions& options, const DRRSetup& setup)
  * --pacs: the CT series and the X-rays fetched from the archive into OUT/pacs-inputs (kept, so
  * that `xpose report` can rebuild the pictures), and the options that register them from there.
  */
-RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMwebArchive& archive)
+RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMArchive& archive)
 {
   if (!options.ct.empty() || !options.xrays.empty())
     throw InputError("--pacs", "takes the CT and the X-rays from the archive: leave out --ct and --xray");
@@ -381,7 +382,7 @@ RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMwebA
   if (local.dicomOutputDirectory.empty())
     local.dicomOutputDirectory = options.outputDirectory + "/dicom";
   std::printf("pacs: CT series %s and %zu X-rays fetched from %s into %s\n", series.c_str(), local.xrays.size(),
-    archive.Root().c_str(), folder.c_str());
+    archive.Address().c_str(), folder.c_str());
   return local;
 }
 
@@ -390,7 +391,7 @@ RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMwebA
  * then the REG (written for an ok result only), last: an archive cannot take an instance back, so
  * the REG that a planning system acts on is stored only when everything it refers to was.
  */
-void StoreInArchive(const DICOMwebArchive& archive, const std::string& dicomDirectory)
+void StoreInArchive(const DICOMArchive& archive, const std::string& dicomDirectory)
 {
   std::vector<std::string> files;
   for (const auto& entry : std::filesystem::directory_iterator(dicomDirectory))
@@ -400,7 +401,7 @@ void StoreInArchive(const DICOMwebArchive& archive, const std::string& dicomDire
   if (std::filesystem::exists(dicomDirectory + "/reg.dcm"))
     files.push_back(dicomDirectory + "/reg.dcm");
   archive.Store(files);
-  std::printf("pacs: %zu DICOM objects stored in %s\n", files.size(), archive.Root().c_str());
+  std::printf("pacs: %zu DICOM objects stored in %s\n", files.size(), archive.Address().c_str());
 }
 
 void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)
@@ -419,7 +420,9 @@ int RunRegister(const RegisterOptions& options)
 {
   if (!options.pacs.empty())
   {
-    const DICOMwebArchive archive(options.pacs, ResolveArchiveAccess(options.pacsCredentials, options.caFile));
+    const std::unique_ptr<DICOMArchive> opened =
+      OpenArchive(options.pacs, ResolveArchiveAccess(options.pacsCredentials, options.caFile), options.aet);
+    const DICOMArchive& archive = *opened;
     const RegisterOptions local = FetchFromArchive(options, archive);
     const int code = RunRegister(local);
     StoreInArchive(archive, local.dicomOutputDirectory);

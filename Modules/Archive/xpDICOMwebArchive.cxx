@@ -58,20 +58,7 @@ bool IsDICOMFile(const std::string& bytes)
   return bytes.size() > 132 && bytes.compare(128, 4, "DICM") == 0;
 }
 
-std::string FileName(const std::string& path)
-{
-  const size_t slash = path.find_last_of('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
 } // namespace
-
-const std::string& CheckedUID(const std::string& uid, const std::string& where)
-{
-  if (uid.empty() || uid.size() > 64 || uid.find_first_not_of("0123456789.") != std::string::npos)
-    throw InputError(where, "'" + uid.substr(0, 80) + "' is not a DICOM UID (digits and dots, 64 at most)");
-  return uid;
-}
 
 std::vector<ArchivedSeries> ParseSeriesAnswer(const std::string& json, const std::string& where)
 {
@@ -179,24 +166,6 @@ std::vector<ArchivedSeries> DICOMwebArchive::SeriesOfStudy(const std::string& st
   return series;
 }
 
-std::string DICOMwebArchive::CTSeriesOfStudy(const std::string& studyUID) const
-{
-  std::vector<const ArchivedSeries*> cts;
-  std::string found;
-  const std::vector<ArchivedSeries> series = this->SeriesOfStudy(studyUID);
-  for (const ArchivedSeries& s : series)
-  {
-    found += "\n  " + s.modality + " " + s.seriesInstanceUID + " (" + std::to_string(s.instances) + " images" +
-      (s.description.empty() ? "" : ", " + s.description) + ")";
-    if (s.modality == "CT")
-      cts.push_back(&s);
-  }
-  if (cts.size() != 1)
-    throw InputError("--study", "study " + studyUID + " holds " + (cts.empty() ? "no CT series" : "several CT series") +
-        "; choose one with --ct-series. The archive holds:" + found);
-  return cts.front()->seriesInstanceUID;
-}
-
 std::vector<std::string> DICOMwebArchive::Retrieve(const std::string& path) const
 {
   const std::string url = this->RootURL + path;
@@ -259,7 +228,6 @@ void DICOMwebArchive::FetchInstance(const std::string& sopInstanceUID, const std
 void DICOMwebArchive::Store(const std::vector<std::string>& files) const
 {
   const std::string url = this->RootURL + "/studies";
-  std::vector<std::string> stored;
   for (size_t f = 0; f < files.size(); ++f)
   {
     std::string failure;
@@ -280,18 +248,8 @@ void DICOMwebArchive::Store(const std::vector<std::string>& files) const
     {
       failure = e.what();
     }
-    if (failure.empty())
-    {
-      stored.push_back(FileName(files[f]));
-      continue;
-    }
-    std::string storedList, notStored;
-    for (const std::string& name : stored)
-      storedList += " " + name;
-    for (size_t g = f; g < files.size(); ++g)
-      notStored += " " + FileName(files[g]);
-    throw Error(files[f], "not stored in " + this->RootURL + " (" + failure + "). Stored:" + (storedList.empty() ? " none" : storedList) +
-        "; not stored:" + notStored);
+    if (!failure.empty())
+      this->ThrowStoreRefused(files, f, failure);
   }
 }
 

@@ -47,6 +47,23 @@ std::string InstanceUID(const std::string& path)
   return uid;
 }
 
+/** Every value of the short-VR element (group, element) in explicit VR little endian bytes, in
+ *  order (sequences of either length encoding hold them as they are). */
+std::vector<std::string> ElementValues(const std::string& bytes, uint16_t group, uint16_t element)
+{
+  const char tag[4] = { static_cast<char>(group & 0xff), static_cast<char>(group >> 8), static_cast<char>(element & 0xff),
+    static_cast<char>(element >> 8) };
+  std::vector<std::string> values;
+  for (size_t at = bytes.find(std::string(tag, 4)); at != std::string::npos; at = bytes.find(std::string(tag, 4), at + 1))
+  {
+    if (at + 8 > bytes.size())
+      break;
+    const size_t length = static_cast<unsigned char>(bytes[at + 6]) | static_cast<unsigned char>(bytes[at + 7]) << 8;
+    values.push_back(bytes.substr(at + 8, length));
+  }
+  return values;
+}
+
 /** Every file under `folder` (recursively) whose bytes hold `text`. */
 std::vector<std::string> FilesHolding(const std::string& folder, const std::string& text)
 {
@@ -84,6 +101,14 @@ void Stop(pid_t& child)
   child = 0;
 }
 
+Json::Value ReadJSON(const std::string& path)
+{
+  Json::Value value;
+  std::ifstream in(path);
+  in >> value;
+  return value;
+}
+
 /** Orthanc (DICOMweb, a registered user, loopback only) behind nginx serving HTTPS. */
 class ArchiveTest : public ::testing::Test
 {
@@ -99,15 +124,20 @@ protected:
     std::filesystem::remove_all(this->Folder);
     std::filesystem::create_directories(this->Folder + "/storage");
     std::filesystem::create_directories(this->Folder + "/nginx");
-    this->HTTPPort = 20000 + static_cast<int>(getpid() % 10000) * 2;
+    // Ten ports per process: tests run side by side as processes with neighbouring ids.
+    this->HTTPPort = 20000 + static_cast<int>(getpid() % 4000) * 10;
     this->TLSPort = this->HTTPPort + 1;
+    this->DICOMPort = this->HTTPPort + 2;
     ASSERT_EQ(std::system(("openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 -addext subjectAltName=IP:127.0.0.1 "
                            "-keyout " + this->Folder + "/key.pem -out " + this->Folder + "/cert.pem > " + this->Folder +
                            "/openssl.log 2>&1").c_str()), 0);
     std::ofstream(this->Folder + "/orthanc.json")
       << "{ \"Name\": \"xpose-test\", \"StorageDirectory\": \"" << this->Folder << "/storage\", \"IndexDirectory\": \""
       << this->Folder << "/storage\", \"HttpPort\": " << this->HTTPPort
-      << ", \"DicomServerEnabled\": false, \"RemoteAccessAllowed\": false, \"AuthenticationEnabled\": true,"
+      << ", \"DicomServerEnabled\": true, \"DicomAet\": \"ORTHANC\", \"DicomPort\": " << this->DICOMPort
+      << ", \"DicomModalities\": { \"xpose\": { \"AET\": \"XPOSE\", \"Host\": \"127.0.0.1\", \"Port\": 104, \"AllowEcho\": true,"
+      << " \"AllowFind\": true, \"AllowGet\": true, \"AllowStore\": true } },"
+      << " \"RemoteAccessAllowed\": false, \"AuthenticationEnabled\": true,"
       << " \"RegisteredUsers\": { \"" << User << "\": \"" << Password << "\" }, \"Plugins\": [ \"" << OrthancDICOMweb
       << "\" ], \"DicomWeb\": { \"Enable\": true, \"Root\": \"/dicom-web/\" } }\n";
     // HTTPS as Orthanc's documentation advises: a reverse proxy in front of it. /garbage/ answers
@@ -168,85 +198,126 @@ protected:
     this->Archive().Store(files);
   }
 
+  /** The study held only in the archive: the phantom CT and two X-rays (RT Image DRRs of a known
+   *  misalignment); and the result of registering the same files from the command line. */
+  struct Study
+  {
+    std::string studyUID;
+    std::vector<std::string> xrays; ///< SOP Instance UIDs, imager order
+    Json::Value direct;             ///< result.json of the files given on the command line
+  };
+  Study MakeStudy() const
+  {
+    Study study;
+    const std::string local = this->Folder + "/local";
+    xp::PhantomOptions phantom;
+    phantom.outputDirectory = local + "/ct";
+    phantom.spacing = 3.0;
+    EXPECT_EQ(xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); }), xp::ExitOk);
+    xp::DRROptions drr;
+    drr.ct = phantom.outputDirectory;
+    drr.geometry = Geometry;
+    drr.pose = "5,-3,2,1,-1,1.5";
+    drr.outputDirectory = local + "/drr";
+    drr.dicomOutputDirectory = local + "/xrays";
+    EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
+    this->StoreFolder(phantom.outputDirectory);
+    this->StoreFolder(drr.dicomOutputDirectory);
+    study.studyUID = xp::ScanCTSeries(phantom.outputDirectory).studyInstanceUID;
+    study.xrays = { InstanceUID(drr.dicomOutputDirectory + "/drr_A.dcm"), InstanceUID(drr.dicomOutputDirectory + "/drr_B.dcm") };
+    xp::RegisterOptions direct;
+    direct.ct = phantom.outputDirectory;
+    direct.xrays = { drr.dicomOutputDirectory + "/drr_A.dcm", drr.dicomOutputDirectory + "/drr_B.dcm" };
+    direct.geometry = Geometry;
+    direct.size = "256x192";
+    direct.outputDirectory = this->Folder + "/direct";
+    EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(direct); }), xp::ExitOk);
+    study.direct = ReadJSON(direct.outputDirectory + "/result.json");
+    std::filesystem::remove_all(local); // from here on, the study is in the archive only
+    return study;
+  }
+
+  /** The study's REG and RT Images in the archive, and the REG written is the one stored: byte
+   *  for byte through DICOMweb; through DIMSE, which re-encodes (dcmtk's meta header, sequence
+   *  lengths), with the same instance UID and transformation matrices. */
+  void ExpectResultsStored(const Study& study, const std::string& out, bool byteForByte) const
+  {
+    int regs = 0, rtImages = 0;
+    for (const xp::ArchivedSeries& series : this->Archive().SeriesOfStudy(study.studyUID))
+    {
+      regs += series.modality == "REG";
+      rtImages += series.modality == "RTIMAGE" ? series.instances : 0;
+    }
+    EXPECT_EQ(regs, 1);
+    EXPECT_EQ(rtImages, 4); // the two X-rays and the two DRRs of the result
+    const std::string written = out + "/dicom/reg.dcm";
+    this->Archive().FetchInstance(InstanceUID(written), this->Folder + "/reg-back.dcm");
+    const std::string back = xp::ReadWholeFile(this->Folder + "/reg-back.dcm"), sent = xp::ReadWholeFile(written);
+    if (byteForByte)
+      EXPECT_TRUE(back == sent) << "the REG stored differs from the REG written";
+    const std::vector<std::string> matrices = ElementValues(sent, 0x3006, 0x00C6);
+    EXPECT_EQ(matrices.size(), 2u);
+    EXPECT_EQ(ElementValues(back, 0x3006, 0x00C6), matrices);
+    EXPECT_EQ(InstanceUID(this->Folder + "/reg-back.dcm"), InstanceUID(written));
+    for (const std::string& xray : study.xrays) // the REG names the X-rays it was found from
+      EXPECT_NE(xp::ReadWholeFile(written).find(xray), std::string::npos) << xray;
+    // The pose from the archive is the pose from the files.
+    const Json::Value fetched = ReadJSON(out + "/result.json");
+    EXPECT_EQ(fetched["status"].asString(), "ok");
+    const Json::Value& pose = fetched["misalignment"];
+    const Json::Value& expected = study.direct["misalignment"];
+    ASSERT_EQ(pose["translation_mm"].size(), 3u);
+    for (Json::ArrayIndex a = 0; a < 3; ++a)
+      EXPECT_EQ(pose["translation_mm"][a].asDouble(), expected["translation_mm"][a].asDouble()) << a;
+    for (const char* angle : { "pitch", "roll", "yaw" })
+    {
+      ASSERT_TRUE(pose["rotation_deg"][angle].isDouble()) << angle;
+      EXPECT_EQ(pose["rotation_deg"][angle].asDouble(), expected["rotation_deg"][angle].asDouble()) << angle;
+    }
+  }
+
   std::string Folder, Url, CredentialsFile;
-  int HTTPPort = 0, TLSPort = 0;
+  int HTTPPort = 0, TLSPort = 0, DICOMPort = 0;
   pid_t Orthanc = 0, Nginx = 0;
 };
-
-Json::Value ReadJSON(const std::string& path)
-{
-  Json::Value value;
-  std::ifstream in(path);
-  in >> value;
-  return value;
-}
 
 } // namespace
 
 TEST_F(ArchiveTest, RegistersAStudyHeldOnlyInTheArchiveOverTLSAndStoresTheResultsBack)
 {
-  // The study: the phantom CT, and two X-rays (RT Image DRRs of a known misalignment).
-  const std::string local = this->Folder + "/local";
-  xp::PhantomOptions phantom;
-  phantom.outputDirectory = local + "/ct";
-  phantom.spacing = 3.0;
-  ASSERT_EQ(xp::GuardedRun("phantom", [&] { return xp::RunPhantom(phantom); }), xp::ExitOk);
-  xp::DRROptions drr;
-  drr.ct = phantom.outputDirectory;
-  drr.geometry = Geometry;
-  drr.pose = "5,-3,2,1,-1,1.5";
-  drr.outputDirectory = local + "/drr";
-  drr.dicomOutputDirectory = local + "/xrays";
-  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
-  this->StoreFolder(phantom.outputDirectory);
-  this->StoreFolder(drr.dicomOutputDirectory);
-  const xp::CTSeriesInfo ct = xp::ScanCTSeries(phantom.outputDirectory);
-  const std::vector<std::string> xrays = { InstanceUID(drr.dicomOutputDirectory + "/drr_A.dcm"),
-    InstanceUID(drr.dicomOutputDirectory + "/drr_B.dcm") };
-  ASSERT_FALSE(xrays[0].empty());
-
-  // The same files from the command line, for the pose to compare with.
-  xp::RegisterOptions direct;
-  direct.ct = phantom.outputDirectory;
-  direct.xrays = { drr.dicomOutputDirectory + "/drr_A.dcm", drr.dicomOutputDirectory + "/drr_B.dcm" };
-  direct.geometry = Geometry;
-  direct.size = "256x192";
-  direct.outputDirectory = this->Folder + "/direct";
-  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(direct); }), xp::ExitOk);
-  std::filesystem::remove_all(local); // from here on, the study is in the archive only
-
+  const Study study = this->MakeStudy();
   // The xpose process, as a user runs it: credentials from the environment, the CA given.
   const std::string out = this->Folder + "/result", log = this->Folder + "/register.log";
   const std::string command = "XPOSE_PACS_USER='" + User + "' XPOSE_PACS_PASSWORD='" + Password + "' '" + XP_XPOSE_EXECUTABLE +
-    "' register --pacs " + this->Url + " --ca-file " + this->Folder + "/cert.pem --study " + ct.studyInstanceUID +
-    " --xray-instance " + xrays[0] + " --xray-instance " + xrays[1] + " --geometry " + Geometry + " --size 256x192 --out-dir " + out +
-    " --report " + out + "/report > " + log + " 2>&1";
+    "' register --pacs " + this->Url + " --ca-file " + this->Folder + "/cert.pem --study " + study.studyUID +
+    " --xray-instance " + study.xrays[0] + " --xray-instance " + study.xrays[1] + " --geometry " + Geometry +
+    " --size 256x192 --out-dir " + out + " --report " + out + "/report > " + log + " 2>&1";
   ASSERT_EQ(std::system(command.c_str()), 0) << xp::ReadWholeFile(log);
-
-  // The study now holds the REG and the RT Images, and the REG that comes back is the one written.
-  int regs = 0, rtImages = 0;
-  for (const xp::ArchivedSeries& series : this->Archive().SeriesOfStudy(ct.studyInstanceUID))
-  {
-    regs += series.modality == "REG";
-    rtImages += series.modality == "RTIMAGE" ? series.instances : 0;
-  }
-  EXPECT_EQ(regs, 1);
-  EXPECT_EQ(rtImages, 4); // the two X-rays and the two DRRs of the result
-  const std::string written = out + "/dicom/reg.dcm";
-  this->Archive().FetchInstance(InstanceUID(written), this->Folder + "/reg-back.dcm");
-  EXPECT_EQ(xp::ReadWholeFile(this->Folder + "/reg-back.dcm"), xp::ReadWholeFile(written));
-  for (const std::string& xray : xrays) // the REG names the X-rays it was found from
-    EXPECT_NE(xp::ReadWholeFile(written).find(xray), std::string::npos) << xray;
-
-  // The pose from the archive is the pose from the files.
-  const Json::Value fetched = ReadJSON(out + "/result.json"), given = ReadJSON(direct.outputDirectory + "/result.json");
-  EXPECT_EQ(fetched["status"].asString(), "ok");
-  for (const char* key : { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" })
-    EXPECT_EQ(fetched["misalignment"][key].asDouble(), given["misalignment"][key].asDouble()) << key;
-
+  this->ExpectResultsStored(study, out, true);
   // No credential in anything written or printed.
   EXPECT_EQ(FilesHolding(out, Password), std::vector<std::string>());
   EXPECT_EQ(xp::ReadWholeFile(log).find(Password), std::string::npos);
+}
+
+TEST_F(ArchiveTest, RegistersThroughDIMSE)
+{
+  // The same study through Orthanc's DICOM port: C-FIND, C-GET, C-STORE as the AE title its
+  // configuration declares.
+  const Study study = this->MakeStudy();
+  xp::RegisterOptions options;
+  options.pacs = "dicom://ORTHANC@127.0.0.1:" + std::to_string(this->DICOMPort);
+  options.study = study.studyUID;
+  options.xrayInstances = study.xrays;
+  options.geometry = Geometry;
+  options.size = "256x192";
+  options.outputDirectory = this->Folder + "/dimse";
+  ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+  this->ExpectResultsStored(study, options.outputDirectory, false);
+  // An AE title the archive does not know may not fetch.
+  options.aet = "STRANGER";
+  options.outputDirectory = this->Folder + "/stranger";
+  EXPECT_NE(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
+  EXPECT_FALSE(std::filesystem::exists(options.outputDirectory + "/result.json"));
 }
 
 TEST_F(ArchiveTest, WrongCredentialsUntrustedCertificatesUnreachableHostsAndGarbageAreClearErrors)
@@ -283,7 +354,7 @@ TEST_F(ArchiveTest, WrongCredentialsUntrustedCertificatesUnreachableHostsAndGarb
   refused("untrusted", "not trusted");
   options.caFile = this->Folder + "/cert.pem";
   // Nothing listens; a URL without the service root; an answer that is not DICOM JSON.
-  options.pacs = "https://127.0.0.1:" + std::to_string(this->TLSPort + 2) + "/dicom-web";
+  options.pacs = "https://127.0.0.1:1/dicom-web";
   refused("unreachable", "no archive answers there");
   options.pacs = "https://127.0.0.1:" + std::to_string(this->TLSPort);
   refused("no-root", "/dicom-web");

@@ -1,6 +1,7 @@
 // What a DICOMweb archive answers is input too, and so is the URL a user gives: each malformed
 // answer or URL is refused with a message that names where, before anything is sent.
 #include "xpDICOMwebArchive.h"
+#include "xpDIMSEArchive.h"
 #include "xpError.h"
 
 #include <gtest/gtest.h>
@@ -26,8 +27,8 @@ std::string InputErrorOf(const std::function<void()>& action)
 TEST(DICOMwebAnswers, ServiceRootsAreCheckedBeforeAnythingIsSent)
 {
   const xp::ArchiveAccess access;
-  EXPECT_EQ(xp::DICOMwebArchive("https://pacs.example:8443/dicom-web/", access).Root(), "https://pacs.example:8443/dicom-web");
-  EXPECT_EQ(xp::DICOMwebArchive("http://127.0.0.1:8042/dicom-web", access).Root(), "http://127.0.0.1:8042/dicom-web");
+  EXPECT_EQ(xp::DICOMwebArchive("https://pacs.example:8443/dicom-web/", access).Address(), "https://pacs.example:8443/dicom-web");
+  EXPECT_EQ(xp::DICOMwebArchive("http://127.0.0.1:8042/dicom-web", access).Address(), "http://127.0.0.1:8042/dicom-web");
   // No path: the message names the DICOMweb URL to use.
   const std::string noPath = InputErrorOf([&] { xp::DICOMwebArchive("http://127.0.0.1:8042", access); });
   EXPECT_NE(noPath.find("http://127.0.0.1:8042/dicom-web"), std::string::npos) << noPath;
@@ -72,4 +73,24 @@ TEST(DICOMwebAnswers, QueryAndStoreAnswersAreReadAsDICOMJSON)
   EXPECT_NE(failures[0].find("1.2.9"), std::string::npos);
   EXPECT_NE(failures[0].find("49152"), std::string::npos);
   EXPECT_THROW(xp::ParseStoreFailures("not json", "test"), xp::Error);
+}
+
+TEST(DICOMwebAnswers, DIMSEAddressesAndAETitlesAreChecked)
+{
+  const xp::ArchiveAccess access;
+  const std::unique_ptr<xp::DICOMArchive> opened = xp::OpenArchive("dicom://ORTHANC@127.0.0.1:4242", access, "XPOSE");
+  const auto* dimse = dynamic_cast<const xp::DIMSEArchive*>(opened.get());
+  ASSERT_NE(dimse, nullptr);
+  EXPECT_EQ(dimse->CalledAET(), "ORTHANC");
+  EXPECT_EQ(dimse->Host(), "127.0.0.1");
+  EXPECT_EQ(dimse->Port(), 4242);
+  EXPECT_NE(dynamic_cast<const xp::DICOMwebArchive*>(xp::OpenArchive("https://pacs/dicom-web", access, "XPOSE").get()), nullptr);
+  for (const std::string& bad : { "dicom://127.0.0.1:4242", "dicom://ORTHANC@127.0.0.1", "dicom://ORTHANC@:4242",
+         "dicom://ORTHANC@host:0", "dicom://A_TITLE_LONGER_THAN_16@host:104", "dicom://BACK\\SLASH@host:104" })
+    EXPECT_NE(InputErrorOf([&] { xp::DIMSEArchive(bad, "XPOSE", access); }).find("--pacs"), std::string::npos) << bad;
+  EXPECT_NE(InputErrorOf([&] { xp::DIMSEArchive("dicom://ORTHANC@host:104", "", access); }).find("--aet"), std::string::npos);
+  // Credentials mean nothing to DIMSE: refused rather than ignored.
+  xp::ArchiveAccess withPassword;
+  withPassword.credentials.kind = xp::ArchiveCredentials::Kind::Basic;
+  EXPECT_THROW(xp::DIMSEArchive("dicom://ORTHANC@host:104", "XPOSE", withPassword), xp::InputError);
 }
