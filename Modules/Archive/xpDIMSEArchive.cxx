@@ -21,7 +21,7 @@ namespace
 {
 
 /** What xpose fetches and stores: CTs, X-rays (RT Image, DX, CR, XA), and its own results. */
-const char* const StorageClasses[] = { UID_CTImageStorage, UID_EnhancedCTImageStorage, UID_RTImageStorage,
+const char* const StorageClasses[] = { UID_CTImageStorage, UID_RTImageStorage,
   UID_DigitalXRayImageStorageForPresentation, UID_DigitalXRayImageStorageForProcessing, UID_ComputedRadiographyImageStorage,
   UID_XRayAngiographicImageStorage, UID_SecondaryCaptureImageStorage, UID_SpatialRegistrationStorage };
 

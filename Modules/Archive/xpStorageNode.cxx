@@ -161,7 +161,7 @@ protected:
 
 std::vector<std::string> StorageNode::AcceptedClasses()
 {
-  return { UID_CTImageStorage, UID_EnhancedCTImageStorage, UID_RTImageStorage, UID_DigitalXRayImageStorageForPresentation,
+  return { UID_CTImageStorage, UID_RTImageStorage, UID_DigitalXRayImageStorageForPresentation,
     UID_DigitalXRayImageStorageForProcessing, UID_ComputedRadiographyImageStorage, UID_XRayAngiographicImageStorage,
     UID_SecondaryCaptureImageStorage, UID_SpatialRegistrationStorage };
 }

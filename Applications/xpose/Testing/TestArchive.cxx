@@ -10,12 +10,11 @@
 #include "xpDICOMSeriesWriter.h"
 #include "xpDICOMwebArchive.h"
 #include "xpError.h"
+#include "xpTestProcesses.h"
 #include "xpWholeFile.h"
 
 #include <vtk_jsoncpp.h>
 
-#include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -23,7 +22,6 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
-#include <thread>
 #include <unistd.h>
 
 namespace
@@ -74,32 +72,7 @@ std::vector<std::string> FilesHolding(const std::string& folder, const std::stri
   return found;
 }
 
-pid_t Start(const std::string& log, const std::vector<std::string>& command)
-{
-  const pid_t child = fork();
-  if (child == 0)
-  {
-    std::freopen(log.c_str(), "w", stdout);
-    std::freopen(log.c_str(), "a", stderr);
-    std::vector<char*> argv;
-    for (const std::string& word : command)
-      argv.push_back(const_cast<char*>(word.c_str()));
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  return child;
-}
 
-void Stop(pid_t& child)
-{
-  if (child > 0)
-  {
-    kill(child, SIGTERM);
-    waitpid(child, nullptr, 0);
-  }
-  child = 0;
-}
 
 Json::Value ReadJSON(const std::string& path)
 {
@@ -152,8 +125,8 @@ protected:
       << this->Folder << "/key.pem;\n"
       << "    location /dicom-web/ { proxy_pass http://127.0.0.1:" << this->HTTPPort << "; proxy_read_timeout 300s; }\n"
       << "    location /garbage/ { default_type application/dicom+json; return 200 'this is not DICOM JSON'; } } }\n";
-    this->Orthanc = Start(this->Folder + "/orthanc.log", { "Orthanc", this->Folder + "/orthanc.json" });
-    this->Nginx = Start(this->Folder + "/nginx.log",
+    this->Orthanc = xp::test::StartProcess(this->Folder + "/orthanc.log", { "Orthanc", this->Folder + "/orthanc.json" });
+    this->Nginx = xp::test::StartProcess(this->Folder + "/nginx.log",
       { "nginx", "-p", this->Folder + "/nginx", "-c", this->Folder + "/nginx.conf", "-e", this->Folder + "/nginx/error.log" });
     this->Url = "https://127.0.0.1:" + std::to_string(this->TLSPort) + "/dicom-web";
     this->CredentialsFile = this->Folder + "/credentials";
@@ -176,8 +149,8 @@ protected:
 
   void TearDown() override
   {
-    Stop(this->Nginx);
-    Stop(this->Orthanc);
+    xp::test::StopProcess(this->Nginx);
+    xp::test::StopProcess(this->Orthanc);
   }
 
   xp::ArchiveAccess Access() const

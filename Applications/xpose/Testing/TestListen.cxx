@@ -3,19 +3,17 @@
 // a second pair is registered again; a calling AE title not allowed is rejected; SIGTERM stops
 // it cleanly. Label: pacs.
 #include "xpCommands.h"
+#include "xpTestProcesses.h"
 #include "xpWholeFile.h"
 
 #include <vtk_jsoncpp.h>
 
-#include <chrono>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
-#include <thread>
 #include <unistd.h>
 
 namespace
@@ -23,35 +21,7 @@ namespace
 
 const std::string Geometry = std::string(XP_SOURCE_DIR) + "/Data/geometry/stereo-oblique-90.json";
 
-pid_t Start(const std::string& log, const std::vector<std::string>& command)
-{
-  const pid_t child = fork();
-  if (child == 0)
-  {
-    std::freopen(log.c_str(), "w", stdout);
-    std::freopen(log.c_str(), "a", stderr);
-    std::vector<char*> argv;
-    for (const std::string& word : command)
-      argv.push_back(const_cast<char*>(word.c_str()));
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  return child;
-}
 
-/** Waits up to `seconds` for `done`; true when it came. */
-bool WaitFor(const std::function<bool()>& done, double seconds)
-{
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (std::chrono::steady_clock::now() < end)
-  {
-    if (done())
-      return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  }
-  return done();
-}
 
 Json::Value ReadJSON(const std::string& path)
 {
@@ -95,12 +65,12 @@ TEST(Listen, RegistersEachPairSentAndForwardsTheREG)
     ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
   }
 
-  pid_t receiver = Start(folder + "/storescp.log", { "storescp", "-aet", "FWD", "-od", folder + "/forwarded", std::to_string(forwardPort) });
-  pid_t node = Start(folder + "/listen.log", { XP_XPOSE_EXECUTABLE, "listen", "--port", std::to_string(port), "--geometry", Geometry,
+  xp::test::RunningProcess receiver(folder + "/storescp.log", { "storescp", "-aet", "FWD", "-od", folder + "/forwarded", std::to_string(forwardPort) });
+  xp::test::RunningProcess node(folder + "/listen.log", { XP_XPOSE_EXECUTABLE, "listen", "--port", std::to_string(port), "--geometry", Geometry,
     "--size", "256x192", "--settle", "1", "--allow-aet", "SENDER", "--forward", "dicom://FWD@127.0.0.1:" + std::to_string(forwardPort),
     "--out-dir", folder + "/node" });
   const std::string to = " -aec XPOSE 127.0.0.1 " + std::to_string(port);
-  ASSERT_TRUE(WaitFor([&] { return Shell("echoscu -aet SENDER" + to + " > /dev/null 2>&1") == 0; }, 20))
+  ASSERT_TRUE(xp::test::WaitFor([&] { return Shell("echoscu -aet SENDER" + to + " > /dev/null 2>&1") == 0; }, 20))
     << xp::ReadWholeFile(folder + "/listen.log");
 
   // A calling AE title not allowed is rejected.
@@ -119,17 +89,17 @@ TEST(Listen, RegistersEachPairSentAndForwardsTheREG)
         study = entry.path().string();
     return !study.empty();
   };
-  ASSERT_TRUE(WaitFor(firstResult, 120)) << xp::ReadWholeFile(folder + "/listen.log");
+  ASSERT_TRUE(xp::test::WaitFor(firstResult, 120)) << xp::ReadWholeFile(folder + "/listen.log");
   const Json::Value first = ReadJSON(study + "/result.json");
   EXPECT_EQ(first["status"].asString(), "ok");
   EXPECT_NEAR(first["misalignment"]["translation_mm"][0].asDouble(), 5.0, 0.5);
   EXPECT_NEAR(first["misalignment"]["translation_mm"][1].asDouble(), -3.0, 0.5);
   const auto forwarded = [&] { return !std::filesystem::is_empty(folder + "/forwarded"); };
-  EXPECT_TRUE(WaitFor(forwarded, 20)) << xp::ReadWholeFile(folder + "/storescp.log");
+  EXPECT_TRUE(xp::test::WaitFor(forwarded, 20)) << xp::ReadWholeFile(folder + "/storescp.log");
 
   // A new pair for the same study: registered again, into node/STUDY/2/.
   ASSERT_EQ(Shell("storescu -aet SENDER" + to + " " + folder + "/xrays--2,4,1,0,1,-1/*.dcm > /dev/null 2>&1"), 0);
-  ASSERT_TRUE(WaitFor([&] { return std::filesystem::exists(study + "/2/result.json"); }, 120)) << xp::ReadWholeFile(folder + "/listen.log");
+  ASSERT_TRUE(xp::test::WaitFor([&] { return std::filesystem::exists(study + "/2/result.json"); }, 120)) << xp::ReadWholeFile(folder + "/listen.log");
   const Json::Value second = ReadJSON(study + "/2/result.json");
   EXPECT_EQ(second["status"].asString(), "ok");
   EXPECT_NEAR(second["misalignment"]["translation_mm"][1].asDouble(), 4.0, 0.5);
@@ -139,10 +109,5 @@ TEST(Listen, RegistersEachPairSentAndForwardsTheREG)
   EXPECT_NE(log.find("sent to dicom://FWD@"), std::string::npos) << log;
 
   // SIGTERM: a clean stop, exit code 0.
-  kill(node, SIGTERM);
-  int status = -1;
-  EXPECT_TRUE(WaitFor([&] { return waitpid(node, &status, WNOHANG) == node; }, 10));
-  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
-  kill(receiver, SIGTERM);
-  waitpid(receiver, nullptr, 0);
+  EXPECT_EQ(node.Terminate(10), 0);
 }
