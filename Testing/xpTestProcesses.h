@@ -24,6 +24,9 @@ namespace test
 /** Starts `command` (found on PATH) with stdout and stderr to `log`; returns its process id. */
 inline pid_t StartProcess(const std::string& log, const std::vector<std::string>& command)
 {
+  // What the test printed so far would otherwise be printed again by the child.
+  std::fflush(stdout);
+  std::fflush(stderr);
   const pid_t child = fork();
   if (child == 0)
   {
