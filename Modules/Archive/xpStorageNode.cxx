@@ -1,6 +1,5 @@
 #include "xpStorageNode.h"
 
-#include "xpDICOMArchive.h"
 #include "xpDIMSEArchive.h"
 #include "xpError.h"
 
@@ -15,7 +14,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <mutex>
 
 namespace xp
 {
