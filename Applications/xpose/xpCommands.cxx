@@ -108,6 +108,7 @@ void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
   CheckLimit(settings.maxUncovered, 0.001, 1.0, "--max-uncovered");
   CheckLimit(settings.maxSearchDisagreementMM, 0.0, 100.0, "--max-search-apart-mm");
   CheckLimit(settings.maxSearchDisagreementDegrees, 0.001, 45.0, "--max-search-apart-deg");
+  CheckLimit(settings.maxRefinedApartDegrees, 0.001, 45.0, "--max-refined-apart-deg");
 }
 
 void UseThreads(int threads)

@@ -63,7 +63,8 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"bins\": " << o.settings.bins << ",\n  \"max_evaluations\": " << o.settings.maxEvaluations
        << ",\n  \"gate\": {\"min_explained\": " << o.settings.minExplained << ", \"max_view_residual_mm\": "
        << o.settings.maxViewResidual << ", \"max_uncovered\": " << o.settings.maxUncovered << ", \"max_search_apart_mm\": "
-       << o.settings.maxSearchDisagreementMM << ", \"max_search_apart_deg\": " << o.settings.maxSearchDisagreementDegrees << "}"
+       << o.settings.maxSearchDisagreementMM << ", \"max_search_apart_deg\": " << o.settings.maxSearchDisagreementDegrees
+       << ", \"max_refined_apart_deg\": " << o.settings.maxRefinedApartDegrees << "}"
        << ",\n  \"remove_table\": " << (o.removeTable && o.scenario == "clinical" ? "true" : "false") << ",\n  \"x_rays\": " << model
        << ",\n  \"success_mtre_mm\": " << o.successMTRE << ",\n  \"target_region\": \"CT voxels above " << TargetHU
        << " HU within " << TargetRadiusMM << " mm of the isocentre\"\n}\n";

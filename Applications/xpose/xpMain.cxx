@@ -48,7 +48,10 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
     "Gate: fraction of a view's valid pixels that may show anatomy the CT does not cover")->capture_default_str();
   command->add_option("--max-search-apart-mm", settings.maxSearchDisagreementMM,
     "Gate: two searches ending farther apart (and as good) fail the result; 0: one search")->capture_default_str();
-  command->add_option("--max-search-apart-deg", settings.maxSearchDisagreementDegrees, "Gate: and degrees")
+  command->add_option("--max-search-apart-deg", settings.maxSearchDisagreementDegrees,
+    "Coarse ends farther apart than this (degrees) or --max-search-apart-mm are both refined")->capture_default_str();
+  command->add_option("--max-refined-apart-deg", settings.maxRefinedApartDegrees,
+    "Gate: refined ends farther apart than this (degrees) or --max-search-apart-mm, and as good, fail the result")
     ->capture_default_str();
   command->add_option("--min-peak-margin", settings.minPeakMargin,
     "Gate: least relative lead of the result over the poses 3 mm away along x, y and z, on a similarity the optimiser did not use")

@@ -57,6 +57,9 @@ struct StereoRegistrationSettings
   /** gate, bones: four refinements restarted 2 mm and 2 degrees around the result must all end
    *  within these of it (restarts_disagree). */
   double maxRestartsApartMM = 0.5, maxRestartsApartDegrees = 0.5;
+  /** Bones: when a restart ends higher than the result, its end becomes the result and four
+   *  restarts go again around it, up to this many rounds in all. */
+  int maxBoneRestartRounds = 3;
   /** gate, bones: the held-out check on correlation (its own scale) judges the turned neighbours
    *  too, at this least lead; the body's limits were measured on MI and do not carry over. */
   double boneMinPeakMargin = 0.075;
@@ -123,6 +126,12 @@ struct StereoRegistrationSettings
    *  they are still that far apart. 0 mm = no second search. */
   double maxSearchDisagreementMM = 0.5;
   double maxSearchDisagreementDegrees = 0.2;
+  /** gate: refined ends farther apart than maxSearchDisagreementMM or this (degrees), about as
+   *  well, fail the result. Not the 0.2 degrees that decide whether both coarse ends are refined:
+   *  two refinements of one optimum ended 0.20-0.21 degrees apart (0.09-0.27 mm) on the
+   *  matrix's noisiest pelvis cells; 0.5 degrees is the rotational tolerance the result is
+   *  asked to keep (Algorithms.md). */
+  double maxRefinedApartDegrees = 0.5;
   /** Coarse ends apart are both refined when the worse one reaches this fraction of the better
    *  one's objective; a clearly worse end is a local optimum the better search left behind. */
   double refineBothObjectiveRatio = 0.95;
@@ -182,6 +191,7 @@ struct StereoRegistrationResult
   long long cutFaceVoxels = 0;
   /** With boneOnly: the farthest end of the refinements restarted around the result. */
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0;
+  int restartRounds = 0;                 ///< a bone's rounds of restarts (a better end restarts them)
   Pose misalignment;
   Pose correction;                   ///< misalignment.Inverse(): what the table should do
   PreAlignmentResult prealignment;
