@@ -174,7 +174,6 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.boneOnly = result.boneOnly;
   record.restartsApartMM = result.restartsApartMM;
   record.restartsApartDegrees = result.restartsApartDegrees;
-  record.restartRounds = result.restartRounds;
   record.correction = result.correction;
   record.viewNames = viewNames;
   record.similarity = result.mutualInformation;
@@ -220,7 +219,6 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   {
     root["restarts_apart"]["mm"] = r.restartsApartMM;
     root["restarts_apart"]["degrees"] = r.restartsApartDegrees;
-    root["restarts_apart"]["rounds"] = r.restartRounds;
   }
   root["convention"] = CorrectionConvention;
   root["views"] = List(r.viewNames);

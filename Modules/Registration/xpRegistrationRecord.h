@@ -44,7 +44,6 @@ struct RegistrationRecord
   Pose initialPose; ///< where the search began (--initial-pose; zero: the planned set-up)
   bool boneOnly = false;                                   ///< matched within the bone's shadow
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0; ///< bones: restarts' farthest end (written only)
-  int restartRounds = 0; ///< bones: rounds of restarts, a better end starting the next (written only)
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
   std::vector<double> xraySmoothingPixels; ///< per view: the X-ray's smoothing sd (pixels)

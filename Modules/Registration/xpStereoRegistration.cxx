@@ -876,7 +876,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     if (refined[1].value > refined[0].value)
       std::swap(refined[0], refined[1]);
   }
-  PoseOptimizerResult fineResult = refined.front();
+  const PoseOptimizerResult& fineResult = refined.front();
   if (result.boneOnly)
   {
     // Four refinements from 2 mm and 2 degrees around the result, each axis's sign changing from
@@ -893,38 +893,15 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     // A restart still travelling after 150 evaluations is in a flat valley: it ends where it is,
     // and that disagreement is the answer (four unbounded ones took 10 s on the metacarpal).
     restartSettings.maxEvaluations = std::min(restartSettings.maxEvaluations, 150);
-    // A restart that ends higher than the result shows the result is no maximum of its own
-    // neighbourhood: the best such end becomes the result and is restarted around in turn, up
-    // to maxBoneRestartRounds (a bone in a field of others left the refinement on a slope: the
-    // radius of the wrist's frame 2 ended at 0.94 with restarts reaching 1.2). The last round's
-    // spread is the gate's.
-    for (int round = 0; round < settings.maxBoneRestartRounds; ++round)
+    for (int k = 0; k < 4; ++k)
     {
-      evidence.restartsApartMM = evidence.restartsApartDegrees = 0.0;
-      PoseOptimizerResult best = fineResult;
-      for (int k = 0; k < 4; ++k)
-      {
-        std::array<double, 6> p = fineResult.pose.Parameters();
-        for (int a = 0; a < 6; ++a)
-          p[a] += ((k < 2 ? k : a + k) % 2 == 0 ? 2.0 : -2.0);
-        const PoseOptimizerResult again = MaximizePose(objective, Pose::FromParameters(p.data()), restartSettings);
-        result.evaluations += again.evaluations;
-        evidence.restartsApartMM = std::max(evidence.restartsApartMM, TranslationApart(again.pose, fineResult.pose));
-        evidence.restartsApartDegrees = std::max(evidence.restartsApartDegrees, RotationApart(again.pose, fineResult.pose));
-        if (again.value > best.value)
-          best = again;
-      }
-      result.restartRounds = round + 1;
-      if (!(best.value > fineResult.value) || round + 1 == settings.maxBoneRestartRounds)
-        break;
-      // The better end is refined with the refinement's own steps before it is restarted around:
-      // a restart stops after 150 evaluations, possibly still climbing.
-      const double before = best.value;
-      best = MaximizePose(objective, best.pose, fineSettings);
-      result.evaluations += best.evaluations;
-      if (!(best.value >= before))
-        break;
-      fineResult = best;
+      std::array<double, 6> p = fineResult.pose.Parameters();
+      for (int a = 0; a < 6; ++a)
+        p[a] += ((k < 2 ? k : a + k) % 2 == 0 ? 2.0 : -2.0);
+      const PoseOptimizerResult again = MaximizePose(objective, Pose::FromParameters(p.data()), restartSettings);
+      result.evaluations += again.evaluations;
+      evidence.restartsApartMM = std::max(evidence.restartsApartMM, TranslationApart(again.pose, fineResult.pose));
+      evidence.restartsApartDegrees = std::max(evidence.restartsApartDegrees, RotationApart(again.pose, fineResult.pose));
     }
     result.restartsApartMM = evidence.restartsApartMM;
     result.restartsApartDegrees = evidence.restartsApartDegrees;

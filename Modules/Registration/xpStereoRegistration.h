@@ -57,9 +57,6 @@ struct StereoRegistrationSettings
   /** gate, bones: four refinements restarted 2 mm and 2 degrees around the result must all end
    *  within these of it (restarts_disagree). */
   double maxRestartsApartMM = 0.5, maxRestartsApartDegrees = 0.5;
-  /** Bones: when a restart ends higher than the result, its end becomes the result and four
-   *  restarts go again around it, up to this many rounds in all. */
-  int maxBoneRestartRounds = 3;
   /** gate, bones: the held-out check on correlation (its own scale) judges the turned neighbours
    *  too, at this least lead; the body's limits were measured on MI and do not carry over. */
   double boneMinPeakMargin = 0.075;
@@ -191,7 +188,6 @@ struct StereoRegistrationResult
   long long cutFaceVoxels = 0;
   /** With boneOnly: the farthest end of the refinements restarted around the result. */
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0;
-  int restartRounds = 0;                 ///< a bone's rounds of restarts (a better end restarts them)
   Pose misalignment;
   Pose correction;                   ///< misalignment.Inverse(): what the table should do
   PreAlignmentResult prealignment;
