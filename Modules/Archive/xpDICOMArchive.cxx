@@ -43,15 +43,18 @@ std::string DICOMArchive::CTSeriesOfStudy(const std::string& studyUID) const
   return cts.front()->seriesInstanceUID;
 }
 
-void DICOMArchive::ThrowStoreRefused(const std::vector<std::string>& files, size_t refused, const std::string& why) const
+void DICOMArchive::ThrowStoreRefused(const std::vector<std::string>& files, size_t refused, const std::string& why, bool badInput) const
 {
   std::string stored, notStored;
   for (size_t f = 0; f < refused; ++f)
     stored += " " + FileName(files[f]);
   for (size_t f = refused; f < files.size(); ++f)
     notStored += " " + FileName(files[f]);
-  throw Error(files[refused], "not stored in " + this->Address() + " (" + why + "). Stored:" + (stored.empty() ? " none" : stored) +
-      "; not stored:" + notStored);
+  const std::string message = "not stored in " + this->Address() + " (" + why + "). Stored:" + (stored.empty() ? " none" : stored) +
+    "; not stored:" + notStored;
+  if (badInput)
+    throw InputError(files[refused], message);
+  throw Error(files[refused], message);
 }
 
 std::unique_ptr<DICOMArchive> OpenArchive(const std::string& url, const ArchiveAccess& access, const std::string& callingAET)

@@ -62,7 +62,8 @@ public:
 
 protected:
   /** The xp::Error of a refused store: `files[refused]` and why, what was stored, what not. */
-  [[noreturn]] void ThrowStoreRefused(const std::vector<std::string>& files, size_t refused, const std::string& why) const;
+  [[noreturn]] void ThrowStoreRefused(
+    const std::vector<std::string>& files, size_t refused, const std::string& why, bool badInput = false) const;
 };
 
 /**

@@ -244,6 +244,12 @@ void DICOMwebArchive::Store(const std::vector<std::string>& files) const
       for (const std::string& item : failures)
         failure += (failure.empty() ? "refused " : "; refused ") + item;
     }
+    // Refused credentials, an untrusted certificate, no archive at the URL: the user's to fix
+    // (exit 2), as when fetching.
+    catch (const InputError& e)
+    {
+      this->ThrowStoreRefused(files, f, e.what(), true);
+    }
     catch (const Error& e)
     {
       failure = e.what();

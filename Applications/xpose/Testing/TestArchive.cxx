@@ -390,6 +390,25 @@ TEST_F(ArchiveTest, AmbiguousOrMissingCTsAndRefusedFilesAreReported)
     EXPECT_NE(message.find("not stored: not-dicom.dcm " + std::filesystem::path(good[1]).filename().string()), std::string::npos)
       << message;
   }
+  // Credentials the archive refuses when storing: bad input, as when fetching, with the same list.
+  const std::string wrong = this->Folder + "/wrong-credentials";
+  std::ofstream(wrong) << User << ":not-" << Password << "\n";
+  chmod(wrong.c_str(), 0600);
+  xp::ArchiveAccess refusedAccess = xp::ResolveArchiveAccess(wrong, this->Folder + "/cert.pem");
+  refusedAccess.connectAttempts = 1;
+  try
+  {
+    xp::DICOMwebArchive(this->Url, refusedAccess).Store({ good[1] });
+    ADD_FAILURE() << "a store with a wrong password was accepted";
+  }
+  catch (const xp::InputError& e)
+  {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("refused the credentials (HTTP 401)"), std::string::npos) << message;
+    EXPECT_NE(message.find("Stored: none; not stored: " + std::filesystem::path(good[1]).filename().string()), std::string::npos)
+      << message;
+    EXPECT_EQ(message.find(Password), std::string::npos) << message;
+  }
   int instances = -1;
   for (const xp::ArchivedSeries& series : archive.SeriesOfStudy(first.studyInstanceUID))
     if (series.seriesInstanceUID == third.seriesInstanceUID)
