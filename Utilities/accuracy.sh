@@ -6,7 +6,9 @@
 #        bash Utilities/accuracy.sh matrix TRIALS [EVALUATE_OPTIONS...]   (e.g. --registration-off median)
 # MATRIX_OUT=eval/NAME writes the matrix's cells to eval/NAME-CELL (default eval/matrix-CELL);
 # MATRIX_ONLY=REGEX runs only the cells whose names match it (e.g. '^pelvis3mm-');
-# MATRIX_SEED=N draws other trials and noise (default 11), to see a result is not the draw's.
+# MATRIX_SEED=N draws other trials and noise (default 11), to see a result is not the draw's;
+# MATRIX_GEOMETRY=FILE puts the matrix's imagers elsewhere (default the reference geometry; e.g.
+# Data/geometry/stereo-oblique-60.json, beams 60 degrees apart).
 # Needs build/bin/xpose, ../shared/data/ct/ (and plastimatch for the matrix); writes under eval/
 # (ignored by git).
 set -euo pipefail
@@ -48,7 +50,7 @@ cell() { # NAME TRIALS ARGS...
   [[ -z ${MATRIX_ONLY:-} || $name =~ $MATRIX_ONLY ]] || return 0
   local dir=${MATRIX_OUT:-eval/matrix}-$name
   rm -rf "$dir"
-  "$xpose" evaluate --geometry "$geometry" --approaches B --trials "$trials" --min-translation 1 --max-translation 20 \
+  "$xpose" evaluate --geometry "${MATRIX_GEOMETRY:-$geometry}" --approaches B --trials "$trials" --min-translation 1 --max-translation 20 \
     --max-rotation 5 --size 512x384 --seed "${MATRIX_SEED:-11}" "$@" "${matrixOptions[@]}" --out-dir "$dir" > "$dir.log" 2>&1 || { echo "| $name | evaluate failed: see $dir.log |"; return; }
   local wrong=0
   case " $* " in *" --xray-ct "*|*" --xray-stretch "*) wrong=1 ;; esac
