@@ -74,6 +74,8 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
          std::make_pair(settings.halvesSearchStepMM, "halvesSearchStepMM"),
          std::make_pair(settings.maxRestartsApartMM, "maxRestartsApartMM"),
          std::make_pair(settings.maxRestartsApartDegrees, "maxRestartsApartDegrees"),
+         std::make_pair(settings.maxSearchDisagreementDegrees, "maxSearchDisagreementDegrees"),
+         std::make_pair(settings.maxRefinedApartDegrees, "maxRefinedApartDegrees"),
          std::make_pair(settings.landscapeNearMM, "landscapeNearMM"), std::make_pair(settings.landscapeNearDegrees, "landscapeNearDegrees"),
          std::make_pair(settings.landscapeCheckMM, "landscapeCheckMM"), std::make_pair(settings.landscapeCheckDegrees, "landscapeCheckDegrees") })
   {
@@ -82,6 +84,9 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
       throw InputError(std::string("registration settings: ") + name, "must be finite and positive");
     }
   }
+  // 0 mm runs one search; a NaN would call any two ends one optimum.
+  if (!(settings.maxSearchDisagreementMM >= 0.0 && std::isfinite(settings.maxSearchDisagreementMM)))
+    throw InputError("registration settings: maxSearchDisagreementMM", "must be finite and not negative");
   // Not a gate limit, but a NaN here would keep every end face without a word.
   if (!(settings.coverageMinExcess >= 0.0 && settings.coverageMinExcess <= 1.0))
   {

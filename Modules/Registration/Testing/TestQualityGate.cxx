@@ -169,6 +169,18 @@ TEST(QualityGate, InvalidLimitsAreRefusedAndCodesHaveStableNames)
   settings = {};
   settings.boneCorrelationHighPassMM = -1.0;
   EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings = {};
+  settings.maxRefinedApartDegrees = std::nan("");
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings = {};
+  settings.maxSearchDisagreementDegrees = 0.0;
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings = {};
+  settings.maxSearchDisagreementMM = -0.5;
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
+  settings = {};
+  settings.maxSearchDisagreementMM = 0.0; // one search
+  EXPECT_NO_THROW(xp::ValidateGateLimits(settings));
   EXPECT_NO_THROW(xp::ValidateGateLimits({}));
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::LowExplained), "low_explained");
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::AmbiguousPose), "ambiguous_pose");
