@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 
 namespace xp
 {
@@ -345,8 +346,9 @@ PoseOptimizerSettings RefinementSettings(const StereoRegistrationSettings& setti
  * independent starts, not the first end moved: a search from the first end can stall on the
  * valley's flat floor short of it. Returns the ends to refine, better first.
  */
-std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, const Pose& start, const StereoRegistrationSettings& settings,
-  bool halfResolution, StereoRegistrationResult& result, ProgressReporter& progress, StageStart& stageStart)
+std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, StereoSimilarity* quarter, const Pose& start,
+  const StereoRegistrationSettings& settings, bool halfResolution, StereoRegistrationResult& result, ProgressReporter& progress,
+  StageStart& stageStart)
 {
   PoseOptimizerSettings searchSettings = RefinementSettings(settings);
   searchSettings.method = settings.optimizer;
@@ -361,24 +363,60 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, const Pose& 
     progress.Evaluated(value);
     return value;
   };
+  const auto quarterObjective = [&](const Pose& p)
+  {
+    const double value = Traced(result, quarter->Evaluate(p));
+    progress.Evaluated(value);
+    return value;
+  };
+  // The travel on quarter-size images ends where its simplex is a pixel there (2 mm at the
+  // isocentre at 512x384); the half-size search goes on from it with steps of that size.
+  PoseOptimizerSettings travelSettings = searchSettings;
+  travelSettings.toleranceMM = 2.0 * searchSettings.toleranceMM;
+  travelSettings.toleranceDegrees = 2.0 * searchSettings.toleranceDegrees;
+  PoseOptimizerSettings afterTravel = searchSettings;
+  afterTravel.initialStepMM = 0.5;
+  afterTravel.initialStepDegrees = 0.25;
+  // One search: its travel at quarter size when there is one, its end at half (or full) size.
+  const auto search = [&](const Pose& from, const char* travelName, const char* name, const PoseOptimizerSettings& endSettings)
+  {
+    Pose travelled = from;
+    int travelEvaluations = 0;
+    if (quarter)
+    {
+      BeginStage(result, travelName, stageStart);
+      const PoseOptimizerResult travel = MaximizePose(quarterObjective, from, travelSettings);
+      travelled = travel.pose;
+      travelEvaluations = travel.evaluations;
+    }
+    BeginStage(result, name, stageStart);
+    PoseOptimizerSettings own = endSettings;
+    if (quarter)
+    {
+      own.initialStepMM = afterTravel.initialStepMM;
+      own.initialStepDegrees = afterTravel.initialStepDegrees;
+    }
+    PoseOptimizerResult found = MaximizePose(objective, travelled, own);
+    found.evaluations += travelEvaluations;
+    return found;
+  };
   const char* name = halfResolution ? "coarse search (half resolution)" : "coarse search";
-  BeginStage(result, name, stageStart);
   progress.Begin(name, 0.1, 0.45);
-  PoseOptimizerResult first = MaximizePose(objective, start, searchSettings);
+  PoseOptimizerResult first = search(start, "coarse search (quarter resolution)", name, searchSettings);
   result.evaluations += first.evaluations;
   if (!(settings.maxSearchDisagreementMM > 0.0))
     return { first.pose };
   Pose moved = start;
   moved.roll += 1.5;
   moved.translation[0] += 1.5;
-  BeginStage(result, "second coarse search", stageStart);
   progress.Begin("second coarse search", 0.45, 0.7);
   // Once the second search stands where the first ended, about as high, it has found the same
-  // optimum: the rest of its travel would only polish it.
+  // optimum: the rest of its travel would only polish it. (Judged at the size the first ended:
+  // the quarter-size travel's objective is on another scale.)
   PoseOptimizerSettings secondSettings = searchSettings;
   secondSettings.stopWhen = [&](const Pose& pose, double value)
   { return Agree(pose, first.pose, settings) && value >= settings.sameOptimumObjectiveRatio * first.value; };
-  PoseOptimizerResult second = MaximizePose(objective, moved, secondSettings);
+  PoseOptimizerResult second = search(moved, "second coarse search (quarter resolution)", "second coarse search", secondSettings);
   result.evaluations += second.evaluations;
   if (second.value > first.value)
     std::swap(first, second);
@@ -820,8 +858,16 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       settings.searchRenderStride > 0 ? settings.searchRenderStride : RenderStrideFor(coarseVolume, coarseSearch, isocenter);
     searchSimilarity.SetRenderStride(result.searchRenderStride);
     searchSimilarity.SetCostSink(&cost);
-    searchEnds = SearchFromTwoStarts(searchSimilarity, result.prealignment.pose, settings, pyramid, result, progress, stageStart);
-    result.drrCount += searchSimilarity.RenderedDRRs();
+    std::unique_ptr<StereoSimilarity> quarter;
+    if (pyramid && settings.quarterSizeTravel && coarseSearch[0].view.Columns() >= 256 && coarseSearch[0].view.Rows() >= 192)
+    {
+      quarter = std::make_unique<StereoSimilarity>(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(coarseSearch, true),
+        settings.bins, SimilarityLevels{ settings.equalizedLevels, 0.0, correlationMM });
+      quarter->SetCostSink(&cost);
+    }
+    searchEnds =
+      SearchFromTwoStarts(searchSimilarity, quarter.get(), result.prealignment.pose, settings, pyramid, result, progress, stageStart);
+    result.drrCount += searchSimilarity.RenderedDRRs() + (quarter ? quarter->RenderedDRRs() : 0);
   }
   // A stall on the half-size images' flatter valley floor comes back at full resolution or shows
   // its lower objective: only ends that stay apart there and are equally good within

@@ -80,6 +80,11 @@ struct StereoRegistrationSettings
    *  every ray by default: at stride 2 the coarser searches left the refinement more to do, and
    *  the whole registration gained 5 % (Performance.md). */
   int searchRenderStride = 1;
+  /** The coarse searches travel on quarter-size images first (from the half-size CT), then go
+   *  on at half size from where they stopped, when the quarter is at least 128x96: most of a
+   *  search's evaluations are its travel, and a quarter-size pair casts a quarter of the rays
+   *  (Performance.md). The ends are compared at half size, as before. */
+  bool quarterSizeTravel = true;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
   bool coverageMask = true;

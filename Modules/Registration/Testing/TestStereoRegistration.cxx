@@ -543,6 +543,47 @@ TEST(StereoRegistration, CostsAreAccountedPerStage)
   EXPECT_LE(staged, result.drrCount);
 }
 
+// At 512x384 the coarse searches travel on 128x96 images and end at 256x192: the travel casts
+// fewer rays per evaluation than the search's end, and the pose is as accurate. Without the
+// quarter size there is no such stage.
+TEST(StereoRegistration, CoarseSearchesTravelAtQuarterSizeOnLargeViews)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 512, 384);
+  const xp::StereoRegistrationResult result = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  const auto stage = [&](const xp::StereoRegistrationResult& r, const std::string& name) -> const xp::RegistrationStage*
+  {
+    for (const xp::RegistrationStage& s : r.stages)
+      if (s.name == name)
+        return &s;
+    return nullptr;
+  };
+  const auto raysPerEvaluation = [&](const xp::StereoRegistrationResult& r, const std::string& name)
+  {
+    const xp::RegistrationStage* s = stage(r, name);
+    return s->cost.drrs > 0 ? static_cast<double>(s->cost.rays) / s->cost.drrs : 0.0;
+  };
+  for (const char* name : { "coarse search (quarter resolution)", "second coarse search (quarter resolution)" })
+  {
+    ASSERT_NE(stage(result, name), nullptr) << name;
+    EXPECT_GT(stage(result, name)->cost.drrs, 0) << name;
+  }
+  ASSERT_NE(stage(result, "coarse search (half resolution)"), nullptr);
+  EXPECT_LT(raysPerEvaluation(result, "coarse search (quarter resolution)"),
+    0.5 * raysPerEvaluation(result, "coarse search (half resolution)"));
+  EXPECT_TRUE(result.ok) << (result.Reasons().empty() ? "" : result.Reasons().front());
+  EXPECT_LT((result.misalignment.translation - truth.translation).norm(), 0.5);
+  EXPECT_NEAR(result.misalignment.yaw, truth.yaw, 0.3);
+
+  xp::StereoRegistrationSettings halfOnly;
+  halfOnly.quarterSizeTravel = false;
+  const xp::StereoRegistrationResult without =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, halfOnly);
+  EXPECT_EQ(stage(without, "coarse search (quarter resolution)"), nullptr);
+  EXPECT_NE(stage(without, "coarse search (half resolution)"), nullptr);
+}
+
 TEST(StereoRegistration, SmoothsEachXRayToTheCTsVoxelAtTheIsocentre)
 {
   // The smoothing's sd in pixels is the fraction asked for of the finest voxel (2 mm here) over
