@@ -27,7 +27,7 @@ run() { # NAME CT SIZE TRIALS MIN MAX SEED ARGS...
   local dir=eval/accuracy-$name
   rm -rf "$dir" # a fresh run: evaluate would resume from an earlier run's trials
   "$xpose" evaluate --ct "$ct" --geometry "$geometry" --size "$size" --scenario clinical --approaches B \
-    --trials "$trials" --min-translation "$min" --max-translation "$max" --seed "$seed" "$@" --out-dir "$dir" > "$dir.log"
+    --trials "$trials" --min-start-translation "$min" --max-start-translation "$max" --seed "$seed" "$@" --out-dir "$dir" > "$dir.log"
   local summary bias
   summary=$(grep '^| B: entropy masks' "$dir.log" | head -1)
   bias=$(grep '^| B |' "$dir.log" | head -1)
@@ -50,8 +50,8 @@ cell() { # NAME TRIALS ARGS...
   [[ -z ${MATRIX_ONLY:-} || $name =~ $MATRIX_ONLY ]] || return 0
   local dir=${MATRIX_OUT:-eval/matrix}-$name
   rm -rf "$dir"
-  "$xpose" evaluate --geometry "${MATRIX_GEOMETRY:-$geometry}" --approaches B --trials "$trials" --min-translation 1 --max-translation 20 \
-    --max-rotation 5 --size 512x384 --seed "${MATRIX_SEED:-11}" "$@" "${matrixOptions[@]}" --out-dir "$dir" > "$dir.log" 2>&1 || { echo "| $name | evaluate failed: see $dir.log |"; return; }
+  "$xpose" evaluate --geometry "${MATRIX_GEOMETRY:-$geometry}" --approaches B --trials "$trials" --min-start-translation 1 --max-start-translation 20 \
+    --max-start-rotation 5 --size 512x384 --seed "${MATRIX_SEED:-11}" "$@" "${matrixOptions[@]}" --out-dir "$dir" > "$dir.log" 2>&1 || { echo "| $name | evaluate failed: see $dir.log |"; return; }
   local wrong=0
   case " $* " in *" --xray-ct "*|*" --xray-stretch "*) wrong=1 ;; esac
   awk -F, -v name="$name" -v wrong="$wrong" '

@@ -49,8 +49,8 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
   text << "{\n  \"ct\": \"" << CanonicalPath(o.ct) << "\",\n  \"series\": \"" << o.series << "\",\n  \"geometry\": \""
        << CanonicalPath(o.geometry)
        << "\",\n  \"scenario\": \"" << o.scenario << "\",\n  \"size\": \"" << size << "\",\n  \"seed\": " << o.seed
-       << ",\n  \"min_translation_mm\": " << o.minTranslation << ",\n  \"max_translation_mm\": " << o.maxTranslation
-       << ",\n  \"max_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise
+       << ",\n  \"min_start_translation_mm\": " << o.minTranslation << ",\n  \"max_start_translation_mm\": " << o.maxTranslation
+       << ",\n  \"max_start_rotation_deg\": " << o.maxRotation << ",\n  \"noise\": " << o.noise
        << ",\n  \"xray_ct\": \"" << (o.xrayCT.empty() ? "" : CanonicalPath(o.xrayCT)) << "\",\n  \"xray_stretch\": \""
        << o.xrayStretch << "\""
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
@@ -79,11 +79,11 @@ void CheckTrialOptions(const EvaluateOptions& options)
   CheckLimit(options.trials, 1, 100000, "--trials");
   if (!(options.minTranslation >= 0.0 && options.maxTranslation >= options.minTranslation && options.maxTranslation <= 200.0))
   {
-    throw InputError("--max-translation", "must be at least --min-translation and at most 200 mm, both 0 or more");
+    throw InputError("--max-start-translation", "must be at least --min-start-translation and at most 200 mm, both 0 or more");
   }
   if (!(options.maxRotation >= 0.0 && options.maxRotation <= 10.0))
   {
-    throw InputError("--max-rotation", "must be between 0 and 10 degrees");
+    throw InputError("--max-start-rotation", "must be between 0 and 10 degrees");
   }
   for (const std::string& approach : options.approaches)
   {

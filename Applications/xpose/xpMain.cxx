@@ -164,9 +164,9 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
       "optimiser")
     ->capture_default_str();
   benchRegister->add_option("--seed", reg.seed, "Seed of the trials and the noise")->capture_default_str();
-  benchRegister->add_option("--min-translation", reg.minTranslation, "Smallest initial translation error, mm")->capture_default_str();
-  benchRegister->add_option("--max-translation", reg.maxTranslation, "Largest initial translation error, mm")->capture_default_str();
-  benchRegister->add_option("--max-rotation", reg.maxRotation, "Largest initial error per angle, degrees")->capture_default_str();
+  benchRegister->add_option("--min-start-translation", reg.minTranslation, "Smallest start error drawn: translation, mm (not the gate's --max-translation)")->capture_default_str();
+  benchRegister->add_option("--max-start-translation", reg.maxTranslation, "Largest start error drawn: translation, mm")->capture_default_str();
+  benchRegister->add_option("--max-start-rotation", reg.maxRotation, "Largest start error drawn per angle, degrees")->capture_default_str();
   benchRegister->add_option("--threads", reg.threads, "Threads (0: all cores)")->capture_default_str();
   return benchCommand;
 }
@@ -306,11 +306,11 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
   evaluateCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
   evaluateCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
   evaluateCommand->add_option("--trials", options.trials, "Misalignments drawn")->capture_default_str();
-  evaluateCommand->add_option("--min-translation", options.minTranslation, "Smallest initial translation error, mm")
+  evaluateCommand->add_option("--min-start-translation", options.minTranslation, "Smallest start error drawn: translation, mm (not the gate's --max-translation)")
     ->capture_default_str();
-  evaluateCommand->add_option("--max-translation", options.maxTranslation, "Largest initial translation error, mm")
+  evaluateCommand->add_option("--max-start-translation", options.maxTranslation, "Largest start error drawn: translation, mm")
     ->capture_default_str();
-  evaluateCommand->add_option("--max-rotation", options.maxRotation, "Largest initial error per angle, degrees")
+  evaluateCommand->add_option("--max-start-rotation", options.maxRotation, "Largest start error drawn per angle, degrees")
     ->capture_default_str();
   evaluateCommand->add_option("--seed", options.seed, "Seed of the trials and the noise")->capture_default_str();
   evaluateCommand->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
