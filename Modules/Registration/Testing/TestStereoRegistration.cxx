@@ -543,15 +543,18 @@ TEST(StereoRegistration, CostsAreAccountedPerStage)
   EXPECT_LE(staged, result.drrCount);
 }
 
-// At 512x384 the coarse searches travel on 128x96 images and end at 256x192: the travel casts
-// fewer rays per evaluation than the search's end, and the pose is as accurate. Without the
-// quarter size there is no such stage.
+// At 512x384 and quarterSizeTravel the coarse searches travel on 128x96 images and end at
+// 256x192: the travel casts fewer rays per evaluation than the search's end, and the pose is as
+// accurate. By default there is no such stage.
 TEST(StereoRegistration, CoarseSearchesTravelAtQuarterSizeOnLargeViews)
 {
   Scene scene;
   const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
   const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 512, 384);
-  const xp::StereoRegistrationResult result = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  xp::StereoRegistrationSettings quarterFirst;
+  quarterFirst.quarterSizeTravel = true;
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, quarterFirst);
   const auto stage = [&](const xp::StereoRegistrationResult& r, const std::string& name) -> const xp::RegistrationStage*
   {
     for (const xp::RegistrationStage& s : r.stages)
@@ -576,10 +579,7 @@ TEST(StereoRegistration, CoarseSearchesTravelAtQuarterSizeOnLargeViews)
   EXPECT_LT((result.misalignment.translation - truth.translation).norm(), 0.5);
   EXPECT_NEAR(result.misalignment.yaw, truth.yaw, 0.3);
 
-  xp::StereoRegistrationSettings halfOnly;
-  halfOnly.quarterSizeTravel = false;
-  const xp::StereoRegistrationResult without =
-    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, halfOnly);
+  const xp::StereoRegistrationResult without = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
   EXPECT_EQ(stage(without, "coarse search (quarter resolution)"), nullptr);
   EXPECT_NE(stage(without, "coarse search (half resolution)"), nullptr);
 }
