@@ -176,6 +176,11 @@ int RunBenchRegister(const BenchRegisterOptions& options)
     throw InputError("--optimizers", "name at least one optimiser");
   if (options.renderStrides.empty())
     throw InputError("--render-strides", "name at least one SEARCH/FINE pair");
+  if (options.travels.empty())
+    throw InputError("--travels", "name at least one of half, quarter");
+  for (const std::string& travel : options.travels)
+    if (travel != "half" && travel != "quarter")
+      throw InputError("--travels", "'" + travel + "' is neither half nor quarter");
   std::vector<std::pair<int, int>> strides;
   for (const std::string& text : options.renderStrides)
     strides.push_back(ParseRenderStrides(text));
@@ -217,34 +222,38 @@ int RunBenchRegister(const BenchRegisterOptions& options)
     std::filesystem::temp_directory_path() / ("xpose-bench-register-" + std::to_string(::getpid()));
   for (const std::string& optimizer : options.optimizers)
     for (size_t k = 0; k < strides.size(); ++k)
-    {
-      SetOptimizers(optimizer, settings.registration, "--optimizers");
-      settings.registration.searchRenderStride = strides[k].first;
-      settings.registration.fineRenderStride = strides[k].second;
-      const std::string name = strides.size() > 1 || strides[k] != std::make_pair(1, 0)
-        ? optimizer + ", strides " + options.renderStrides[k] : optimizer;
-      AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
-      // The folder only carries the records: a fresh one per variant, removed afterwards.
-      std::string folderName = optimizer + "-" + std::to_string(k);
-      std::replace(folderName.begin(), folderName.end(), '/', '+');
-      const std::filesystem::path directory = scratch / folderName;
-      std::filesystem::remove_all(directory);
-      std::filesystem::create_directories(scratch);
-      VariantFigures variant;
-      variant.optimizer = name;
+      for (const std::string& travel : options.travels)
       {
-        EvaluationFolder folder(directory.string(), "{\"bench\": \"register\", \"variant\": \"" + name + "\"}");
-        evaluation.Run(options.trials, { "B" }, folder, [&](const TrialRecord& record, int, int)
-          {
-            Record(variant, record, evaluation.LastResult());
-            std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s%s%s\n", name.c_str(), record.trial,
-              record.status.c_str(), record.mtre, record.totalSeconds, record.reasons.empty() ? "" : ": ", record.reasons.c_str());
-          });
+        SetOptimizers(optimizer, settings.registration, "--optimizers");
+        settings.registration.searchRenderStride = strides[k].first;
+        settings.registration.fineRenderStride = strides[k].second;
+        settings.registration.quarterSizeTravel = travel == "quarter";
+        std::string name = strides.size() > 1 || strides[k] != std::make_pair(1, 0)
+          ? optimizer + ", strides " + options.renderStrides[k] : optimizer;
+        if (options.travels.size() > 1 || travel != "half")
+          name += ", " + travel + " travel";
+        AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
+        // The folder only carries the records: a fresh one per variant, removed afterwards.
+        std::string folderName = optimizer + "-" + std::to_string(k) + "-" + travel;
+        std::replace(folderName.begin(), folderName.end(), '/', '+');
+        const std::filesystem::path directory = scratch / folderName;
+        std::filesystem::remove_all(directory);
+        std::filesystem::create_directories(scratch);
+        VariantFigures variant;
+        variant.optimizer = name;
+        {
+          EvaluationFolder folder(directory.string(), "{\"bench\": \"register\", \"variant\": \"" + name + "\"}");
+          evaluation.Run(options.trials, { "B" }, folder, [&](const TrialRecord& record, int, int)
+            {
+              Record(variant, record, evaluation.LastResult());
+              std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s%s%s\n", name.c_str(), record.trial,
+                record.status.c_str(), record.mtre, record.totalSeconds, record.reasons.empty() ? "" : ": ", record.reasons.c_str());
+            });
+        }
+        std::filesystem::remove_all(directory);
+        PrintStages(variant, cores);
+        variants.push_back(std::move(variant));
       }
-      std::filesystem::remove_all(directory);
-      PrintStages(variant, cores);
-      variants.push_back(std::move(variant));
-    }
   std::filesystem::remove_all(scratch);
 
   std::printf("\nVariants side by side (the same trials and X-rays; time = the registration, CT read excluded; the CT "

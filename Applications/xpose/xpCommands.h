@@ -82,6 +82,9 @@ struct BenchRegisterOptions
   /** Render strides compared, SEARCH/FINE (StereoRegistrationSettings::searchRenderStride,
    *  fineRenderStride), each with every optimiser. */
   std::vector<std::string> renderStrides{ "1/0" };
+  /** The coarse searches' travel compared: "half" (the default) and/or "quarter"
+   *  (StereoRegistrationSettings::quarterSizeTravel), each with every other variant. */
+  std::vector<std::string> travels{ "half" };
   unsigned seed = 11;
   double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
   int threads = 0;

@@ -163,6 +163,10 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
       "Render strides compared, SEARCH/FINE (register's --search-render-stride and --fine-render-stride), each with every "
       "optimiser")
     ->capture_default_str();
+  benchRegister->add_option("--travels", reg.travels,
+      "The coarse searches' travel compared: half (the default) and/or quarter (register's --quarter-size-travel true), "
+      "each with every other variant")
+    ->capture_default_str();
   benchRegister->add_option("--seed", reg.seed, "Seed of the trials and the noise")->capture_default_str();
   benchRegister->add_option("--min-start-translation", reg.minTranslation, "Smallest start error drawn: translation, mm (not the gate's --max-translation)")->capture_default_str();
   benchRegister->add_option("--max-start-translation", reg.maxTranslation, "Largest start error drawn: translation, mm")->capture_default_str();

@@ -923,7 +923,7 @@ TEST(Commands, GeometryFromProjectionMatricesRoundTripsTheReferenceGeometry)
   EXPECT_NE(stat(options.output.c_str(), &info), 0) << "nothing written";
 }
 
-// `bench register` prints each variant's stages (optimiser x render strides) and one line per
+// `bench register` prints each variant's stages (optimiser x render strides x travel) and one line per
 // variant side by side, from the same trials; an unknown optimiser or a malformed stride is bad input.
 TEST(Commands, BenchRegisterPrintsStagesPerVariant)
 {
@@ -935,13 +935,15 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
   options.size = "128x96";
   options.optimizers = { "nelder-mead", "nelder-mead/bobyqa" };
   options.renderStrides = { "1/1", "2/2" };
+  options.travels = { "half", "quarter" };
   ::testing::internal::CaptureStdout();
   const int code = xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); });
   const std::string out = ::testing::internal::GetCapturedStdout();
   ASSERT_EQ(code, xp::ExitOk) << out;
-  for (const char* text : { "nelder-mead, strides 1/1: medians", "nelder-mead/bobyqa, strides 2/2: medians", "| coarse search",
-         "| fine | 1 |", "| landscape | 1 |", "Variants side by side", "| nelder-mead, strides 1/1 | ",
-         "| nelder-mead, strides 2/2 | ", "| nelder-mead/bobyqa, strides 1/1 | ", "median time with the CT read (s)" })
+  for (const char* text : { "nelder-mead, strides 1/1, half travel: medians", "nelder-mead/bobyqa, strides 2/2, quarter travel: medians",
+         "| coarse search", "| fine | 1 |", "| landscape | 1 |", "Variants side by side", "| nelder-mead, strides 1/1, half travel | ",
+         "| nelder-mead, strides 2/2, half travel | ", "| nelder-mead/bobyqa, strides 1/1, quarter travel | ",
+         "median time with the CT read (s)" })
     EXPECT_NE(out.find(text), std::string::npos) << text << "\n" << out;
   // The reference's time ratio to itself; every ray cast at stride 1, about a quarter at 2.
   const auto row = [&](const std::string& name)
@@ -949,7 +951,7 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
     const size_t at = out.find("| " + name + " | ", out.find("Variants side by side"));
     return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
   };
-  EXPECT_NE(row("nelder-mead, strides 1/1").find("| 1.00 |"), std::string::npos) << out;
+  EXPECT_NE(row("nelder-mead, strides 1/1, half travel").find("| 1.00 |"), std::string::npos) << out;
   const auto megaRays = [&](const std::string& name)
   {
     std::string text = row(name);
@@ -957,12 +959,15 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
       text = text.substr(text.find('|') + 1);
     return std::atof(text.c_str());
   };
-  EXPECT_LT(megaRays("nelder-mead, strides 2/2"), 0.5 * megaRays("nelder-mead, strides 1/1")) << out;
+  EXPECT_LT(megaRays("nelder-mead, strides 2/2, half travel"), 0.5 * megaRays("nelder-mead, strides 1/1, half travel")) << out;
 
   options.renderStrides = { "1/1" };
   options.optimizers = { "nelder-mead", "nelder-mead/simplex" };
   EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
   options.optimizers = { "nelder-mead" };
   options.renderStrides = { "2-2" };
+  EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
+  options.renderStrides = { "1/0" };
+  options.travels = { "half", "eighth" };
   EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
 }
