@@ -369,33 +369,27 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, StereoSimila
     progress.Evaluated(value);
     return value;
   };
-  // The travel on quarter-size images ends where its simplex is a pixel there (2 mm at the
-  // isocentre at 512x384); the half-size search goes on from it with steps of that size.
+  // The travel on quarter-size images (2 mm pixels at the isocentre at 512x384) stops at twice
+  // the search's tolerances; the half-size search goes on from it with a quarter of its simplex.
   PoseOptimizerSettings travelSettings = searchSettings;
   travelSettings.toleranceMM = 2.0 * searchSettings.toleranceMM;
   travelSettings.toleranceDegrees = 2.0 * searchSettings.toleranceDegrees;
-  PoseOptimizerSettings afterTravel = searchSettings;
-  afterTravel.initialStepMM = 0.5;
-  afterTravel.initialStepDegrees = 0.25;
   // One search: its travel at quarter size when there is one, its end at half (or full) size.
   const auto search = [&](const Pose& from, const char* travelName, const char* name, const PoseOptimizerSettings& endSettings)
   {
     Pose travelled = from;
     int travelEvaluations = 0;
+    PoseOptimizerSettings own = endSettings;
     if (quarter)
     {
       BeginStage(result, travelName, stageStart);
       const PoseOptimizerResult travel = MaximizePose(quarterObjective, from, travelSettings);
       travelled = travel.pose;
       travelEvaluations = travel.evaluations;
+      own.initialStepMM = 0.25 * endSettings.initialStepMM;
+      own.initialStepDegrees = 0.25 * endSettings.initialStepDegrees;
     }
     BeginStage(result, name, stageStart);
-    PoseOptimizerSettings own = endSettings;
-    if (quarter)
-    {
-      own.initialStepMM = afterTravel.initialStepMM;
-      own.initialStepDegrees = afterTravel.initialStepDegrees;
-    }
     PoseOptimizerResult found = MaximizePose(objective, travelled, own);
     found.evaluations += travelEvaluations;
     return found;
