@@ -27,7 +27,7 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--search-render-stride", settings.searchRenderStride,
     "The same for the coarse searches' half-size DRRs (0: as for the refinement, for the CT they render; 1: every ray)")->capture_default_str();
   command->add_option("--quarter-size-travel", settings.quarterSizeTravel,
-    "The coarse searches travel on quarter-size images first, then end at half size (when the quarter is at least 128x96; faster searches, two matrix cells 0.06-0.07 mm less accurate: Performance.md)")
+    "The coarse searches travel on quarter-size images first, then end at half size (when the quarter is at least 128x96; searches 0.52x the time, but more false failed and three matrix cells over 0.05 mm worse: Performance.md)")
     ->capture_default_str();
   command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();

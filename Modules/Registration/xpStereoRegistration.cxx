@@ -357,18 +357,18 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, StereoSimila
   searchSettings.toleranceMM = 0.1;
   searchSettings.toleranceDegrees = 0.05;
   searchSettings.maxRestarts = 3; // stalls happen in the long coarse travel; restarts are cheap here
-  const auto objective = [&](const Pose& p)
+  // Every evaluation, at either size, is traced and heard.
+  const auto tracedOn = [&](StereoSimilarity* measure)
   {
-    const double value = Traced(result, similarity.Evaluate(p));
-    progress.Evaluated(value);
-    return value;
+    return [&result, &progress, measure](const Pose& p)
+    {
+      const double value = Traced(result, measure->Evaluate(p));
+      progress.Evaluated(value);
+      return value;
+    };
   };
-  const auto quarterObjective = [&](const Pose& p)
-  {
-    const double value = Traced(result, quarter->Evaluate(p));
-    progress.Evaluated(value);
-    return value;
-  };
+  const auto objective = tracedOn(&similarity);
+  const auto quarterObjective = tracedOn(quarter);
   // The travel on quarter-size images (2 mm pixels at the isocentre at 512x384) stops at twice
   // the search's tolerances; the half-size search goes on from it with a quarter of its simplex.
   PoseOptimizerSettings travelSettings = searchSettings;

@@ -82,10 +82,10 @@ struct StereoRegistrationSettings
   int searchRenderStride = 1;
   /** The coarse searches travel on quarter-size images first (from the half-size CT), then go
    *  on at half size from where they stopped, when the quarter is at least 128x96: a
-   *  quarter-size pair casts a quarter of the rays, and the searches take 1.0 s instead of 1.5 s
-   *  on the pelvis. Off by default: on the generalisation matrix two cells' median mTRE grew by
-   *  more than 0.05 mm (0.06, 0.07), within the refinement's own scatter from a moved start
-   *  (Performance.md, "Quarter-size travel"). */
+   *  quarter-size pair casts a fifth of the rays, and the searches take 0.52x the time on the
+   *  pelvis. Off by default: on the generalisation matrix 5 of 500 accurate results failed
+   *  instead of 1, and three cells' median mTRE grew by more than 0.05 mm (Performance.md,
+   *  "Quarter-size travel"). */
   bool quarterSizeTravel = false;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
