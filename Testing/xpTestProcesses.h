@@ -6,11 +6,14 @@
 #ifndef xpTestProcesses_h
 #define xpTestProcesses_h
 
+#include <arpa/inet.h>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <functional>
+#include <netinet/in.h>
 #include <string>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <thread>
 #include <unistd.h>
@@ -64,6 +67,48 @@ inline bool WaitFor(const std::function<bool()>& done, double seconds)
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   return done();
+}
+
+/** True when a TCP server could listen on 127.0.0.1:`port` now. */
+inline bool LoopbackPortFree(int port)
+{
+  const int probe = socket(AF_INET, SOCK_STREAM, 0);
+  if (probe < 0)
+    return false;
+  int reuse = 1; // as servers set it: a port left in TIME_WAIT is free to them
+  setsockopt(probe, SOL_SOCKET, SO_REUSEADDR, &reuse, sizeof(reuse));
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const bool free = bind(probe, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0;
+  close(probe);
+  return free;
+}
+
+/** The first of `count` consecutive loopback ports that are free now, for the servers of one
+ *  test process. Below Linux's ephemeral range (32768 up), where outgoing connections of the
+ *  tests beside it would otherwise take a server's port between this check and its start; the
+ *  search starts at a place of its own per process id and `salt` (a retry's number). */
+inline int FreeLoopbackPorts(int count, int salt = 0)
+{
+  const int first = 20000, blocks = (32768 - first) / 16;
+  for (int tried = 0; tried < blocks; ++tried)
+  {
+    const int base = first + static_cast<int>((getpid() + 7 * salt + tried) % blocks) * 16;
+    bool free = true;
+    for (int port = base; port < base + count && free; ++port)
+      free = LoopbackPortFree(port);
+    if (free)
+      return base;
+  }
+  return first;
+}
+
+/** True while `child` (a process this one started) runs; false once it has ended. */
+inline bool StillRunning(pid_t child)
+{
+  return child > 0 && waitpid(child, nullptr, WNOHANG) == 0;
 }
 
 /** A process started for one test and stopped when the test ends, however it ends. */

@@ -97,13 +97,33 @@ protected:
     std::filesystem::remove_all(this->Folder);
     std::filesystem::create_directories(this->Folder + "/storage");
     std::filesystem::create_directories(this->Folder + "/nginx");
-    // Ten ports per process: tests run side by side as processes with neighbouring ids.
-    this->HTTPPort = 20000 + static_cast<int>(getpid() % 4000) * 10;
-    this->TLSPort = this->HTTPPort + 1;
-    this->DICOMPort = this->HTTPPort + 2;
     ASSERT_EQ(std::system(("openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 -addext subjectAltName=IP:127.0.0.1 "
                            "-keyout " + this->Folder + "/key.pem -out " + this->Folder + "/cert.pem > " + this->Folder +
                            "/openssl.log 2>&1").c_str()), 0);
+    this->CredentialsFile = this->Folder + "/credentials";
+    std::ofstream(this->CredentialsFile) << User << ":" << Password << "\n";
+    chmod(this->CredentialsFile.c_str(), 0600);
+    // A server that could not take its port (another process took it first) ends at once: start
+    // both again on other ports rather than wait for an answer that cannot come.
+    std::string why;
+    for (int start = 0; start < 3; ++start)
+    {
+      why = this->StartArchive(start);
+      if (why.empty())
+        return;
+      xp::test::StopProcess(this->Nginx);
+      xp::test::StopProcess(this->Orthanc);
+    }
+    FAIL() << why;
+  }
+
+  /** Starts Orthanc and nginx on free ports and waits up to a minute (a loaded two-core machine
+   *  starts Orthanc slowly) for the archive to answer through both: empty when it does, else why. */
+  std::string StartArchive(int start)
+  {
+    this->HTTPPort = xp::test::FreeLoopbackPorts(3, start);
+    this->TLSPort = this->HTTPPort + 1;
+    this->DICOMPort = this->HTTPPort + 2;
     std::ofstream(this->Folder + "/orthanc.json")
       << "{ \"Name\": \"xpose-test\", \"StorageDirectory\": \"" << this->Folder << "/storage\", \"IndexDirectory\": \""
       << this->Folder << "/storage\", \"HttpPort\": " << this->HTTPPort
@@ -129,22 +149,29 @@ protected:
     this->Nginx = xp::test::StartProcess(this->Folder + "/nginx.log",
       { "nginx", "-p", this->Folder + "/nginx", "-c", this->Folder + "/nginx.conf", "-e", this->Folder + "/nginx/error.log" });
     this->Url = "https://127.0.0.1:" + std::to_string(this->TLSPort) + "/dicom-web";
-    this->CredentialsFile = this->Folder + "/credentials";
-    std::ofstream(this->CredentialsFile) << User << ":" << Password << "\n";
-    chmod(this->CredentialsFile.c_str(), 0600);
-    for (int attempt = 0; attempt < 150; ++attempt)
+    const std::string logs = " (see " + this->Folder + "/orthanc.log and nginx/error.log)";
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < end)
     {
+      const bool orthancRuns = xp::test::StillRunning(this->Orthanc), nginxRuns = xp::test::StillRunning(this->Nginx);
+      if (!orthancRuns || !nginxRuns)
+      {
+        this->Orthanc = orthancRuns ? this->Orthanc : 0; // an ended process was reaped: nothing to stop
+        this->Nginx = nginxRuns ? this->Nginx : 0;
+        return std::string(orthancRuns ? "nginx" : "Orthanc") + " ended while starting on ports " + std::to_string(this->HTTPPort) + "-" +
+          std::to_string(this->DICOMPort) + logs;
+      }
       try
       {
         this->Archive().CheckReachable();
-        return;
+        return "";
       }
       catch (const xp::Error&)
       {
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
       }
     }
-    FAIL() << "the archive did not answer at " << this->Url << " (see " << this->Folder << "/orthanc.log and nginx/error.log)";
+    return "the archive did not answer at " + this->Url + " within a minute" + logs;
   }
 
   void TearDown() override

@@ -47,7 +47,7 @@ TEST(Listen, RegistersEachPairSentAndForwardsTheREG)
   const std::string folder = std::filesystem::absolute("listen-node").string();
   std::filesystem::remove_all(folder);
   std::filesystem::create_directories(folder + "/forwarded");
-  const int port = 20000 + static_cast<int>(getpid() % 4000) * 10 + 5, forwardPort = port + 1;
+  const int port = xp::test::FreeLoopbackPorts(2), forwardPort = port + 1;
 
   // The study: the phantom CT and two X-ray pairs of different misalignments.
   xp::PhantomOptions phantom;
