@@ -29,6 +29,9 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--quarter-size-travel", settings.quarterSizeTravel,
     "The coarse searches travel on quarter-size images first, then end at half size (when the quarter is at least 128x96; searches 0.52x the time, but more false failed and three matrix cells over 0.05 mm worse: Performance.md)")
     ->capture_default_str();
+  command->add_option("--vertex-polish", settings.vertexPolishRounds,
+    "Rounds of moving the refinement's end to the vertex of the objective's parabola along each axis, through its values "
+    "1.5 mm and 1 degree either side (0: off)")->capture_default_str();
   command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
   command->add_option("--held-out-high-pass-mm", settings.heldOutHighPassMM,

@@ -4,6 +4,8 @@
 
 #include <nlopt.hpp>
 
+#include <array>
+#include <cmath>
 #include <vector>
 
 namespace xp
@@ -185,6 +187,27 @@ PoseOptimizerResult MaximizePose(
   result.pose = ToPose(x);
   result.evaluations = context.evaluations;
   return result;
+}
+
+Pose MoveToParabolaVertex(
+  const std::function<double(const Pose&)>& objective, const Pose& end, double atEnd, double stepMM, double stepDegrees)
+{
+  const std::array<double, 6> center = end.Parameters();
+  std::array<double, 6> vertex = center;
+  for (int a = 0; a < 6; ++a)
+  {
+    const double h = a < 3 ? stepMM : stepDegrees;
+    std::array<double, 6> p = center;
+    p[a] = center[a] - h;
+    const double below = objective(Pose::FromParameters(p.data()));
+    p[a] = center[a] + h;
+    const double above = objective(Pose::FromParameters(p.data()));
+    const double bend = 2.0 * atEnd - below - above;
+    const double offset = bend > 0.0 ? 0.5 * h * (above - below) / bend : 0.0;
+    if (std::abs(offset) <= h)
+      vertex[a] += offset;
+  }
+  return Pose::FromParameters(vertex.data());
 }
 
 } // namespace xp

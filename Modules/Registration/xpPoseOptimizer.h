@@ -63,6 +63,16 @@ struct PoseOptimizerResult
 VTKXPREGISTRATION_EXPORT PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings = {});
 
+/**
+ * One step to the vertex of the objective's parabola along each parameter in turn, through its
+ * values at `end` (`atEnd`) and `stepMM` (translations) or `stepDegrees` (rotations) either side:
+ * 12 evaluations. A parameter whose three values do not bracket a maximum (no downward bend, or
+ * the vertex farther than a step) keeps its value. On a quadratic peak with independent axes it
+ * lands on the peak; on a cone (|x|) it halves the distance.
+ */
+VTKXPREGISTRATION_EXPORT Pose MoveToParabolaVertex(
+  const std::function<double(const Pose&)>& objective, const Pose& end, double atEnd, double stepMM, double stepDegrees);
+
 } // namespace xp
 
 #endif

@@ -916,7 +916,27 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     if (refined[1].value > refined[0].value)
       std::swap(refined[0], refined[1]);
   }
-  const PoseOptimizerResult& fineResult = refined.front();
+  PoseOptimizerResult& fineResult = refined.front();
+  if (!result.boneOnly && settings.vertexPolishRounds > 0)
+  {
+    BeginStage(result, "vertex polish", stageStart);
+    const auto objective = [&](const Pose& p)
+    {
+      const double value = Traced(result, fine.Evaluate(p));
+      ++result.evaluations;
+      progress.Evaluated(value);
+      return value;
+    };
+    // The refinement's small simplex stops on the first bump of a noisy objective near where it
+    // started; the parabolas span the landscape's 3 mm and 2 degrees and read the peak's shape.
+    for (int round = 0; round < settings.vertexPolishRounds; ++round)
+    {
+      fineResult.pose =
+        MoveToParabolaVertex(objective, fineResult.pose, fineResult.value, settings.landscapeNearMM, settings.landscapeNearDegrees);
+      fineResult.value = objective(fineResult.pose);
+    }
+    EndStage(result, stageStart);
+  }
   if (result.boneOnly)
   {
     // Four refinements from 2 mm and 2 degrees around the result, each axis's sign changing from

@@ -261,6 +261,55 @@ TEST(PoseOptimizer, StopsAtTheTargetWithThePoseThatReachedIt)
   EXPECT_LT(early.evaluations, full.evaluations);
 }
 
+// The vertex step: onto a quadratic peak exactly, halfway down a cone, and not along an axis
+// whose values do not bracket a maximum; each axis moves towards its own peak (a sign flip or
+// an axis swap moves it away).
+TEST(PoseOptimizer, ParabolaVertexStepFindsThePeakAlongEachAxis)
+{
+  const std::array<double, 6> peak{ 3.0, -2.0, 1.0, 1.0, 0.5, -1.0 }, bend{ 1.0, 2.0, 0.5, 3.0, 1.5, 0.7 };
+  const std::array<double, 6> off{ 0.4, -0.3, 0.6, -0.5, 0.2, 0.35 }; // the end's offsets from the peak
+  std::array<double, 6> endParameters;
+  for (int a = 0; a < 6; ++a)
+    endParameters[a] = peak[a] + off[a];
+  const xp::Pose end = xp::Pose::FromParameters(endParameters.data());
+  int evaluations = 0;
+  const auto quadratic = [&](const xp::Pose& p)
+  {
+    ++evaluations;
+    const std::array<double, 6> q = p.Parameters();
+    double value = 0.0;
+    for (int a = 0; a < 6; ++a)
+      value -= bend[a] * (q[a] - peak[a]) * (q[a] - peak[a]);
+    return value;
+  };
+  const std::array<double, 6> onPeak = xp::MoveToParabolaVertex(quadratic, end, quadratic(end), 1.5, 1.0).Parameters();
+  EXPECT_EQ(evaluations, 13);
+  for (int a = 0; a < 6; ++a)
+    EXPECT_NEAR(onPeak[a], peak[a], 1e-9) << a;
+
+  const auto cone = [&](const xp::Pose& p)
+  {
+    const std::array<double, 6> q = p.Parameters();
+    double value = 0.0;
+    for (int a = 0; a < 6; ++a)
+      value -= std::abs(q[a] - peak[a]);
+    return value;
+  };
+  const std::array<double, 6> downCone = xp::MoveToParabolaVertex(cone, end, cone(end), 1.5, 1.0).Parameters();
+  for (int a = 0; a < 6; ++a)
+  {
+    const double remaining = downCone[a] - peak[a];
+    EXPECT_GE(remaining * off[a], -1e-12) << a;            // towards the peak, not past it
+    EXPECT_LT(std::abs(remaining), 0.5 * std::abs(off[a])) << a; // at least halfway
+  }
+
+  // Yaw rises across the whole bracket: no peak there, so yaw stays.
+  const auto slope = [&](const xp::Pose& p) { return quadratic(p) + bend[5] * std::pow(p.Parameters()[5] - peak[5], 2) + p.Parameters()[5]; };
+  const std::array<double, 6> sloped = xp::MoveToParabolaVertex(slope, end, slope(end), 1.5, 1.0).Parameters();
+  EXPECT_DOUBLE_EQ(sloped[5], endParameters[5]);
+  EXPECT_NEAR(sloped[0], peak[0], 1e-9);
+}
+
 TEST(PreAlignment, InverseProjectionOfProjectedMotionsGivesTheTranslation)
 {
   // A pure 3D translation seen by both views: the projected shifts give it back exactly.
