@@ -88,9 +88,12 @@ struct StereoRegistrationSettings
    *  "Quarter-size travel"). */
   bool quarterSizeTravel = false;
   /** Rounds of moving the refinement's end to the vertex of the objective's parabola along each
-   *  axis, through its values landscapeNear either side (12 evaluations and one more a round);
-   *  0: the refinement's end as it is. Not for a bone-only volume (its restarts judge the end). */
-  int vertexPolishRounds = 0;
+   *  axis, through its values landscapeNear either side (MoveToParabolaVertex: 12 evaluations
+   *  and one more a round); 0: the refinement's end as it is. The refinement's small simplex
+   *  stops on a bump of the noisy objective near its start; one round made no cell of the
+   *  generalisation matrix worse (Algorithms.md, "Registration", 3). Not for a bone-only volume
+   *  (its restarts judge the end). */
+  int vertexPolishRounds = 1;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
   bool coverageMask = true;
