@@ -917,23 +917,24 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       std::swap(refined[0], refined[1]);
   }
   PoseOptimizerResult& fineResult = refined.front();
+  // The refinement's objective, each evaluation counted: for the polish and the landscape.
+  const auto countedObjective = [&](const Pose& p)
+  {
+    const double value = Traced(result, fine.Evaluate(p));
+    ++result.evaluations;
+    progress.Evaluated(value);
+    return value;
+  };
   if (!result.boneOnly && settings.vertexPolishRounds > 0)
   {
     BeginStage(result, "vertex polish", stageStart);
-    const auto objective = [&](const Pose& p)
-    {
-      const double value = Traced(result, fine.Evaluate(p));
-      ++result.evaluations;
-      progress.Evaluated(value);
-      return value;
-    };
     // The refinement's small simplex stops on the first bump of a noisy objective near where it
     // started; the parabolas span the landscape's 3 mm and 2 degrees and read the peak's shape.
     for (int round = 0; round < settings.vertexPolishRounds; ++round)
     {
-      fineResult.pose =
-        MoveToParabolaVertex(objective, fineResult.pose, fineResult.value, settings.landscapeNearMM, settings.landscapeNearDegrees);
-      fineResult.value = objective(fineResult.pose);
+      fineResult.pose = MoveToParabolaVertex(
+        countedObjective, fineResult.pose, fineResult.value, settings.landscapeNearMM, settings.landscapeNearDegrees);
+      fineResult.value = countedObjective(fineResult.pose);
     }
     EndStage(result, stageStart);
   }
@@ -992,14 +993,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
       { settings.equalizedLevels, settings.heldOutHighPassMM, correlationMM });
     heldOut.SetCostSink(&cost);
-    const auto objective = [&](const Pose& p)
-    {
-      const double value = Traced(result, fine.Evaluate(p));
-      ++result.evaluations;
-      progress.Evaluated(value);
-      return value;
-    };
-    MeasureLandscape(objective, heldOut, fineResult.pose,
+    MeasureLandscape(countedObjective, heldOut, fineResult.pose,
       fineResult.value, settings, result);
     // Equalised levels on both sides: the DRR's transmission at 12 bits is quantised where a
     // thick body lets little through, and its steps would be edges.
