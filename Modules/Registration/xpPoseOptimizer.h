@@ -68,7 +68,7 @@ VTKXPREGISTRATION_EXPORT PoseOptimizerResult MaximizePose(
  * values at `end` (`atEnd`) and `stepMM` (translations) or `stepDegrees` (rotations) either side:
  * 12 evaluations. A parameter whose three values do not bracket a maximum (no downward bend, or
  * the vertex farther than a step) keeps its value. On a quadratic peak with independent axes it
- * lands on the peak; on a cone (|x|) it halves the distance.
+ * lands on the peak; on a cone (|x|) it at least halves the distance, never passing the peak.
  */
 VTKXPREGISTRATION_EXPORT Pose MoveToParabolaVertex(
   const std::function<double(const Pose&)>& objective, const Pose& end, double atEnd, double stepMM, double stepDegrees);
