@@ -4,17 +4,20 @@
 #include "xpRegistrationRecord.h"
 #include "xpDICOMSeries.h"
 #include "xpImageGeometry.h"
+#include "xpImageIO.h"
 #include "xpPose.h"
 #include "xpSpatialRegistration.h"
 #include "xpVolumeIO.h"
 #include "xpStereoGeometry.h"
 
+#include <algorithm>
 #include <dirent.h>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <iostream>
 #include <random>
 #include <sstream>
 #include <gtest/gtest.h>
@@ -921,6 +924,82 @@ TEST(Commands, GeometryFromProjectionMatricesRoundTripsTheReferenceGeometry)
   EXPECT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(bad); }), xp::ExitBadInput);
   struct stat info;
   EXPECT_NE(stat(options.output.c_str(), &info), 0) << "nothing written";
+}
+
+// The real wrist set through the user's path: `xpose geometry --camera-calibration` and the
+// TIFF reader. Twelve skin-marker dots on the forearm, found in frame 158 of both cameras (file
+// pixels, column from the left, row from the top; dark local minima), must meet as rays
+// through the geometry's views (their closest approach within 0.5 mm, each reprojected within
+// one pixel), and the X-rays as read must show each dot where its pixel says. A flipped row or
+// column axis of the import or of the reader moves the rays apart by millimetres and the dots
+// off their pixels.
+TEST(Commands, WristCalibrationsMeetAtTheMarkersOfBothViews)
+{
+  const std::string wrist = std::string(XP_SHARED_DATA_DIR) + "/real-biplane-wrist/";
+  if (!Exists(wrist + "xr_calib_wrist_cam01.txt"))
+  {
+    GTEST_SKIP() << "shared wrist set not found at " << wrist << " (../shared/data beside the project)";
+  }
+  xp::GeometryOptions options;
+  options.cameraCalibrations = { wrist + "xr_calib_wrist_cam01.txt", wrist + "xr_calib_wrist_cam02.txt" };
+  options.pixelSpacing = "0.2";
+  options.output = "cmd-wrist-geometry.json";
+  std::remove(options.output.c_str());
+  ASSERT_EQ(xp::GuardedRun("geometry", [&] { return xp::RunGeometry(options); }), xp::ExitOk);
+  const xp::StereoGeometry geometry = xp::ReadStereoGeometry(options.output);
+  ASSERT_EQ(geometry.views.size(), 2u);
+  const xp::XRayView& a = geometry.views[0];
+  const xp::XRayView& b = geometry.views[1];
+  const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> dots = { { { 769, 1316 }, { 900, 1378 } },
+    { { 796, 1336 }, { 881, 1397 } }, { { 755, 1347 }, { 897, 1410 } }, { { 789, 1368 }, { 882, 1430 } },
+    { { 757, 1371 }, { 892, 1435 } }, { { 781, 1393 }, { 883, 1457 } }, { { 929, 1401 }, { 606, 1412 } },
+    { { 939, 1405 }, { 626, 1420 } }, { { 934, 1442 }, { 604, 1453 } }, { { 942, 1443 }, { 621, 1459 } },
+    { { 936, 1468 }, { 598, 1478 } }, { { 945, 1469 }, { 623, 1486 } } };
+  std::vector<double> gaps, reprojections;
+  for (const auto& [inA, inB] : dots)
+  {
+    const xp::Ray rayA = a.PixelRay(inA[0], inA[1]), rayB = b.PixelRay(inB[0], inB[1]);
+    double gap = 0.0;
+    const Eigen::Vector3d point =
+      xp::ClosestApproach({ { rayA.origin, rayA.direction }, { rayB.origin, rayB.direction } }, &gap);
+    gaps.push_back(gap);
+    reprojections.push_back(std::max((a.Project(point) - inA).norm(), (b.Project(point) - inB).norm()));
+    EXPECT_LT(gap, 0.5) << "dot at A " << inA.transpose() << ", B " << inB.transpose();
+    EXPECT_LT(reprojections.back(), 1.0) << "dot at A " << inA.transpose() << ", B " << inB.transpose();
+  }
+  std::sort(gaps.begin(), gaps.end());
+  std::sort(reprojections.begin(), reprojections.end());
+  std::cout << "wrist markers: rays " << gaps[gaps.size() / 2] << " mm apart (median; largest " << gaps.back()
+            << "), reprojected within " << reprojections[reprojections.size() / 2] << " px (median; largest "
+            << reprojections.back() << ")\n";
+
+  // Each dot is darker than the ring 5-7 pixels about it by 10 grey levels or more, where the
+  // reader puts the file's pixel; turned upside down, most are not.
+  const auto darkDots = [&](const std::string& file, int which, bool upsideDown)
+  {
+    const vtkSmartPointer<vtkImageData> xray = xp::ReadXRayTIFF(file);
+    const int rows = xray->GetDimensions()[1];
+    const auto value = [&](int column, int row) // row from the top; VTK's j runs up
+    { return xray->GetScalarComponentAsDouble(column, rows - 1 - (upsideDown ? rows - 1 - row : row), 0, 0); };
+    int dark = 0;
+    for (const auto& pair : dots)
+    {
+      const Eigen::Vector2d& pixel = which == 0 ? pair.first : pair.second;
+      const int c = static_cast<int>(pixel[0]), r = static_cast<int>(pixel[1]);
+      double ring = 0.0;
+      int count = 0;
+      for (int dr = -7; dr <= 7; ++dr)
+        for (int dc = -7; dc <= 7; ++dc)
+          if (const double d = std::hypot(dc, dr); d >= 5.0 && d <= 7.0)
+            ring += value(c + dc, r + dr), ++count;
+      dark += ring / count - value(c, r) >= 10.0 ? 1 : 0;
+    }
+    return dark;
+  };
+  const int count = static_cast<int>(dots.size());
+  EXPECT_EQ(darkDots(wrist + "xr_rad_uln_cam01_UND.0158.tif", 0, false), count);
+  EXPECT_EQ(darkDots(wrist + "xr_rad_uln_cam02_UND.0158.tif", 1, false), count);
+  EXPECT_LT(darkDots(wrist + "xr_rad_uln_cam01_UND.0158.tif", 0, true), count / 2) << "the check must see a flip";
 }
 
 // `bench register` prints each variant's stages (optimiser x render strides x travel) and one line per
