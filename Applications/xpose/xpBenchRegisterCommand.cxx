@@ -193,7 +193,7 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   std::optional<DetectorSettings> detector;
   if (!options.detector.empty())
     detector = DetectorSettings{ ParseDetectorFormat(options.detector, "--detector"), 20000.0, 0.001 };
-  const EvaluationScenario scenario(options.scenario, {}, 30.0, true, detector);
+  const EvaluationScenario scenario(options.scenario, options.without, 30.0, options.removeTable, detector);
 
   const Clock::time_point readStart = Clock::now();
   const StereoGeometry geometry = ReadStereoGeometry(options.geometry);
@@ -212,10 +212,10 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   ct.image->GetDimensions(dims);
   std::printf("xpose bench register\nCT: %s, %d x %d x %d voxels, read in %.2f s (with the geometry; not in the times "
               "below)\nX-rays: scenario %s%s%s, %d trials (seed %u, %.0f-%.0f mm, %.0f degrees), registered at %s with "
-              "entropy masks (approach B); %d threads\n",
+              "entropy masks (approach B) against %.0f %% of the CT's slices%s; %d threads\n",
     options.ct.c_str(), dims[0], dims[1], dims[2], readSeconds, options.scenario.c_str(), detector ? ", detector " : "",
     options.detector.c_str(), options.trials, options.seed, options.minTranslation, options.maxTranslation, options.maxRotation,
-    options.size.c_str(), cores);
+    options.size.c_str(), 100.0 * scenario.RegistrationCTLength(), scenario.RemovesTable() ? ", its table left out" : "", cores);
 
   std::vector<VariantFigures> variants;
   const std::filesystem::path scratch =

@@ -75,6 +75,10 @@ struct BenchRegisterOptions
   std::string geometry;
   std::string scenario = "clinical";
   std::string detector;             ///< empty: the scenario's own X-rays
+  /** Clinical effects switched off, as evaluate's: "truncation" registers against a CT that
+   *  covers the X-rays' whole field, as most users' CTs do (twice the valid pixels here). */
+  std::vector<std::string> without;
+  bool removeTable = true;
   int trials = 5;
   std::string size = "512x384";
   /** One name for every 6-DOF stage, or SEARCH/REFINEMENT. */

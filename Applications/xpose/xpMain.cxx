@@ -154,6 +154,10 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
   benchRegister->add_option("--scenario", reg.scenario, "X-rays: clinical (the physics simulator), plastimatch, noisy, ... (as evaluate)")
     ->capture_default_str();
   benchRegister->add_option("--detector", reg.detector, "Image format of the clinical and plastimatch scenarios (as evaluate)");
+  benchRegister->add_option("--without", reg.without,
+    "Clinical effects to switch off (as evaluate): truncation registers against a CT as long as the X-rays' field")
+    ->delimiter(',');
+  benchRegister->add_flag("!--keep-table", reg.removeTable, "Register against the CT with its table (as evaluate)");
   benchRegister->add_option("--trials", reg.trials, "Misalignments per optimiser (the same for each)")->capture_default_str();
   benchRegister->add_option("--size", reg.size, "Registration resolution COLSxROWS")->capture_default_str();
   std::string optimizerNames;

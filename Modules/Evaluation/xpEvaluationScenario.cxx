@@ -58,10 +58,8 @@ vtkSmartPointer<vtkImageData> EvaluationScenario::RegistrationCT(vtkImageData* c
   // Truncated: the X-rays see the whole patient, the registration a CT of half its length;
   // clinical: of 80 % of its length. The simulated room has no CT table.
   vtkSmartPointer<vtkImageData> cut = ct;
-  if (this->Scenario == "truncated")
-    cut = CropSlices(ct, 0.5);
-  else if (this->Truncation)
-    cut = CropSlices(ct, 0.8);
+  if (this->RegistrationCTLength() < 1.0)
+    cut = CropSlices(ct, this->RegistrationCTLength());
   return this->RemovesTable() ? BodyOnly(cut) : cut;
 }
 

@@ -57,6 +57,8 @@ public:
   const XRayPhysicsSettings& Physics() const { return this->PhysicsSettings; }
   const XRaySimulation& Model() const { return this->ModelSettings; }
 
+  /** The fraction of the CT's slices the registration gets (1: all of them). */
+  double RegistrationCTLength() const { return this->Scenario == "truncated" ? 0.5 : this->Truncation ? 0.8 : 1.0; }
   /** The planning CT the registration gets: cut to the scenario's length, without the table. */
   vtkSmartPointer<vtkImageData> RegistrationCT(vtkImageData* ct) const;
 

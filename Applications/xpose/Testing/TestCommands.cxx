@@ -1022,7 +1022,7 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
   for (const char* text : { "nelder-mead, strides 1/1, half travel: medians", "nelder-mead/bobyqa, strides 2/2, quarter travel: medians",
          "| coarse search", "| fine | 1 |", "| landscape | 1 |", "Variants side by side", "| nelder-mead, strides 1/1, half travel | ",
          "| nelder-mead, strides 2/2, half travel | ", "| nelder-mead/bobyqa, strides 1/1, quarter travel | ",
-         "median time with the CT read (s)" })
+         "median time with the CT read (s)", "against 100 % of the CT's slices;" })
     EXPECT_NE(out.find(text), std::string::npos) << text << "\n" << out;
   // The reference's time ratio to itself; every ray cast at stride 1, about a quarter at 2.
   const auto row = [&](const std::string& name)
@@ -1048,5 +1048,8 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
   EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
   options.renderStrides = { "1/0" };
   options.travels = { "half", "eighth" };
+  EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
+  options.travels = { "half" };
+  options.without = { "truncation" }; // an effect of the clinical scenario only
   EXPECT_EQ(xp::GuardedRun("bench register", [&] { return xp::RunBenchRegister(options); }), xp::ExitBadInput);
 }
