@@ -5,6 +5,8 @@
 #include <vtkDataArray.h>
 #include <vtkFloatArray.h>
 #include <vtkPointData.h>
+#include <vtkSMPTools.h>
+#include <vtkType.h>
 
 #include <algorithm>
 
@@ -16,103 +18,182 @@ namespace
 
 using Index = long long;
 
-/** Labels the 6-connected components of `inside`; returns each component's size (label - 1). */
-std::vector<Index> LabelComponents(const std::vector<uint8_t>& inside, const Eigen::Vector3i& d, std::vector<int>& label)
+/**
+ * The voxels of `inside` whose 6-connected component holds at least `fraction` of the largest
+ * one's voxels; empty when nothing is inside. Components are joined from runs along x (a run
+ * meets the runs of the row before it in its slice and of its row in the slice before wherever
+ * they share a column), by union-find over the runs: a few hundred thousand runs where a voxel
+ * walk visits tens of millions of voxels.
+ */
+std::vector<uint8_t> KeepLargeComponents(const std::vector<uint8_t>& inside, const Eigen::Vector3i& d, double fraction)
 {
-  const Index nx = d[0], ny = d[1], nz = d[2], slice = nx * ny;
-  label.assign(inside.size(), 0);
-  std::vector<Index> sizes, stack;
-  for (Index start = 0; start < static_cast<Index>(inside.size()); ++start)
+  const Index nx = d[0], rows = static_cast<Index>(d[1]) * d[2];
+  struct Run
   {
-    if (!inside[start] || label[start])
-      continue;
-    const int id = static_cast<int>(sizes.size()) + 1;
-    Index size = 0;
-    stack.assign(1, start);
-    label[start] = id;
-    while (!stack.empty())
+    int begin, end; // columns [begin, end)
+  };
+  std::vector<Run> runs;
+  std::vector<size_t> rowStart(static_cast<size_t>(rows) + 1, 0);
+  for (Index r = 0; r < rows; ++r)
+  {
+    rowStart[r] = runs.size();
+    const uint8_t* row = inside.data() + r * nx;
+    for (int x = 0; x < nx;)
     {
-      const Index v = stack.back();
-      stack.pop_back();
-      ++size;
-      const Index x = v % nx, y = (v / nx) % ny, z = v / slice;
-      const Index neighbours[6] = { x > 0 ? v - 1 : -1, x + 1 < nx ? v + 1 : -1, y > 0 ? v - nx : -1,
-        y + 1 < ny ? v + nx : -1, z > 0 ? v - slice : -1, z + 1 < nz ? v + slice : -1 };
-      for (Index n : neighbours)
-        if (n >= 0 && inside[n] && !label[n])
-        {
-          label[n] = id;
-          stack.push_back(n);
-        }
+      if (!row[x])
+      {
+        ++x;
+        continue;
+      }
+      const int begin = x;
+      while (x < nx && row[x])
+        ++x;
+      runs.push_back({ begin, x });
     }
-    sizes.push_back(size);
   }
-  return sizes;
+  rowStart[rows] = runs.size();
+  std::vector<uint8_t> kept(inside.size(), 0);
+  if (runs.empty())
+    return kept;
+
+  std::vector<size_t> parent(runs.size());
+  for (size_t i = 0; i < parent.size(); ++i)
+    parent[i] = i;
+  const auto root = [&](size_t i)
+  {
+    while (parent[i] != i)
+      i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  // Joins the runs of row r with those of row q that share a column.
+  const auto joinRows = [&](Index r, Index q)
+  {
+    size_t i = rowStart[r], j = rowStart[q];
+    while (i < rowStart[r + 1] && j < rowStart[q + 1])
+    {
+      if (runs[i].begin < runs[j].end && runs[j].begin < runs[i].end)
+      {
+        const size_t a = root(i), b = root(j);
+        if (a != b)
+          parent[std::max(a, b)] = std::min(a, b);
+      }
+      if (runs[i].end < runs[j].end)
+        ++i;
+      else
+        ++j;
+    }
+  };
+  const Index ny = d[1];
+  for (Index r = 0; r < rows; ++r)
+  {
+    if (r % ny > 0)
+      joinRows(r, r - 1); // the row before, in the same slice
+    if (r >= ny)
+      joinRows(r, r - ny); // the same row, in the slice before
+  }
+  std::vector<Index> size(runs.size(), 0);
+  for (size_t i = 0; i < runs.size(); ++i)
+    size[root(i)] += runs[i].end - runs[i].begin;
+  const Index largest = *std::max_element(size.begin(), size.end());
+  for (Index r = 0; r < rows; ++r)
+    for (size_t i = rowStart[r]; i < rowStart[r + 1]; ++i)
+      if (size[root(i)] >= fraction * largest)
+        std::fill(kept.begin() + r * nx + runs[i].begin, kept.begin() + r * nx + runs[i].end, uint8_t{ 1 });
+  return kept;
 }
 
-/** Fills each slice's cavities: what the outside cannot reach from the slice border is body. */
+/** Fills each slice's cavities: what the outside cannot reach from the slice border is body.
+ *  Slices are independent: they run on all threads. */
 void FillSliceCavities(std::vector<uint8_t>& body, const Eigen::Vector3i& d)
 {
   const Index nx = d[0], ny = d[1], slice = nx * ny;
-  std::vector<uint8_t> outside(static_cast<size_t>(slice));
-  std::vector<Index> stack;
-  for (Index z = 0; z < d[2]; ++z)
-  {
-    uint8_t* b = body.data() + z * slice;
-    std::fill(outside.begin(), outside.end(), 0);
-    stack.clear();
-    for (Index x = 0; x < nx; ++x)
-      for (Index y : { Index(0), ny - 1 })
-        stack.push_back(y * nx + x);
-    for (Index y = 0; y < ny; ++y)
-      for (Index x : { Index(0), nx - 1 })
-        stack.push_back(y * nx + x);
-    while (!stack.empty())
+  vtkSMPTools::For(Index{ 0 }, Index{ d[2] }, Index{ 1 },
+    [&](Index firstSlice, Index endSlice)
     {
-      const Index p = stack.back();
-      stack.pop_back();
-      if (b[p] || outside[p])
-        continue;
-      outside[p] = 1;
-      const Index x = p % nx, y = p / nx;
-      if (x > 0) stack.push_back(p - 1);
-      if (x + 1 < nx) stack.push_back(p + 1);
-      if (y > 0) stack.push_back(p - nx);
-      if (y + 1 < ny) stack.push_back(p + nx);
-    }
-    for (Index p = 0; p < slice; ++p)
-      b[p] = !outside[p];
-  }
+      std::vector<uint8_t> outside(static_cast<size_t>(slice));
+      std::vector<Index> stack;
+      for (Index z = firstSlice; z < endSlice; ++z)
+      {
+        uint8_t* b = body.data() + z * slice;
+        std::fill(outside.begin(), outside.end(), 0);
+        stack.clear();
+        for (Index x = 0; x < nx; ++x)
+          for (Index y : { Index(0), ny - 1 })
+            stack.push_back(y * nx + x);
+        for (Index y = 0; y < ny; ++y)
+          for (Index x : { Index(0), nx - 1 })
+            stack.push_back(y * nx + x);
+        while (!stack.empty())
+        {
+          const Index p = stack.back();
+          stack.pop_back();
+          if (b[p] || outside[p])
+            continue;
+          outside[p] = 1;
+          const Index x = p % nx;
+          if (x > 0) stack.push_back(p - 1);
+          if (x + 1 < nx) stack.push_back(p + 1);
+          if (p >= nx) stack.push_back(p - nx);
+          if (p + nx < slice) stack.push_back(p + nx);
+        }
+        for (Index p = 0; p < slice; ++p)
+          b[p] = !outside[p];
+      }
+    });
 }
 
-/** Square in-slice dilation by `radius` voxels, separable (rows, then columns). */
+/**
+ * Square in-slice dilation by `radius` voxels, separable (along the rows, then down the columns),
+ * each pass a sliding count of the set voxels within the window (linear in the slice, whatever
+ * the radius; the columns a row of counts at a time, in memory order). Slices run on all threads.
+ */
 void DilateSlices(std::vector<uint8_t>& body, const Eigen::Vector3i& d, int radius)
 {
-  const Index nx = d[0], ny = d[1], slice = nx * ny;
-  std::vector<uint8_t> line;
-  for (Index z = 0; z < d[2]; ++z)
-  {
-    uint8_t* b = body.data() + z * slice;
-    for (int pass = 0; pass < 2; ++pass)
+  const Index nx = d[0], ny = d[1], slice = nx * ny, r = radius;
+  vtkSMPTools::For(Index{ 0 }, Index{ d[2] }, Index{ 1 },
+    [&](Index firstSlice, Index endSlice)
     {
-      const Index length = pass == 0 ? nx : ny, lines = pass == 0 ? ny : nx;
-      const Index stride = pass == 0 ? 1 : nx, lineStride = pass == 0 ? nx : 1;
-      line.resize(static_cast<size_t>(length));
-      for (Index l = 0; l < lines; ++l)
+      std::vector<uint8_t> copy(static_cast<size_t>(slice));
+      std::vector<int> counts(static_cast<size_t>(nx));
+      for (Index z = firstSlice; z < endSlice; ++z)
       {
-        uint8_t* p = b + l * lineStride;
-        for (Index i = 0; i < length; ++i)
-          line[i] = p[i * stride];
-        for (Index i = 0; i < length; ++i)
+        uint8_t* b = body.data() + z * slice;
+        // Along each row: count of set voxels in [x - r, x + r].
+        for (Index y = 0; y < ny; ++y)
         {
-          uint8_t any = 0;
-          for (Index j = std::max<Index>(0, i - radius); j <= std::min(length - 1, i + radius) && !any; ++j)
-            any = line[j];
-          p[i * stride] = any;
+          const uint8_t* in = b + y * nx;
+          uint8_t* out = copy.data() + y * nx;
+          int count = 0;
+          for (Index x = 0; x < std::min(r, nx); ++x)
+            count += in[x] != 0;
+          for (Index x = 0; x < nx; ++x)
+          {
+            if (x + r < nx)
+              count += in[x + r] != 0;
+            if (x - r - 1 >= 0)
+              count -= in[x - r - 1] != 0;
+            out[x] = count > 0;
+          }
+        }
+        // Down each column: counts over rows [y - r, y + r], one row of counts at a time.
+        std::fill(counts.begin(), counts.end(), 0);
+        for (Index y = 0; y < std::min(r, ny); ++y)
+          for (Index x = 0; x < nx; ++x)
+            counts[x] += copy[y * nx + x];
+        for (Index y = 0; y < ny; ++y)
+        {
+          if (y + r < ny)
+            for (Index x = 0; x < nx; ++x)
+              counts[x] += copy[(y + r) * nx + x];
+          if (y - r - 1 >= 0)
+            for (Index x = 0; x < nx; ++x)
+              counts[x] -= copy[(y - r - 1) * nx + x];
+          uint8_t* out = b + y * nx;
+          for (Index x = 0; x < nx; ++x)
+            out[x] = counts[x] > 0;
         }
       }
-    }
-  }
+    });
 }
 
 } // namespace
@@ -135,17 +216,12 @@ std::vector<uint8_t> SegmentBody(const float* hu, const Eigen::Vector3i& dims, c
   DilateSlices(core, dims, settings.openingRadius);
   for (uint8_t& v : core)
     v = !v;
-  std::vector<int> label;
-  const std::vector<Index> sizes = LabelComponents(core, dims, label);
-  if (sizes.empty())
+  if (std::find(core.begin(), core.end(), uint8_t{ 1 }) == core.end())
   {
     throw InputError("body mask", "no part of the CT above " + std::to_string(settings.thresholdHU) +
         " HU is thicker than " + std::to_string(2 * settings.openingRadius + 1) + " voxels");
   }
-  const Index largest = *std::max_element(sizes.begin(), sizes.end());
-  std::vector<uint8_t> body(count);
-  for (size_t i = 0; i < count; ++i)
-    body[i] = label[i] > 0 && sizes[label[i] - 1] >= settings.minComponentFraction * largest;
+  std::vector<uint8_t> body = KeepLargeComponents(core, dims, settings.minComponentFraction);
   // Back to the tissue's own outline: what the opening took from the kept parts.
   DilateSlices(body, dims, settings.openingRadius + 1);
   for (size_t i = 0; i < count; ++i)
@@ -180,8 +256,18 @@ vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings&
   body->SetDirectionMatrix(ct->GetDirectionMatrix());
   auto values = vtkSmartPointer<vtkFloatArray>::New();
   values->SetNumberOfTuples(scalars->GetNumberOfTuples());
-  for (vtkIdType i = 0; i < scalars->GetNumberOfTuples(); ++i)
-    values->SetValue(i, static_cast<float>(scalars->GetTuple1(i)));
+  float* to = values->GetPointer(0);
+  const vtkIdType count = scalars->GetNumberOfTuples();
+  switch (scalars->GetDataType())
+  {
+    // The stored type's values as floats, without a virtual call per voxel.
+    vtkTemplateMacro(std::transform(static_cast<const VTK_TT*>(scalars->GetVoidPointer(0)),
+      static_cast<const VTK_TT*>(scalars->GetVoidPointer(0)) + count, to,
+      [](VTK_TT value) { return static_cast<float>(static_cast<double>(value)); }));
+    default:
+      for (vtkIdType i = 0; i < count; ++i)
+        to[i] = static_cast<float>(scalars->GetTuple1(i));
+  }
   body->GetPointData()->SetScalars(values);
   int dims[3];
   ct->GetDimensions(dims);
