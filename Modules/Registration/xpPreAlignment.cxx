@@ -17,13 +17,19 @@ namespace
 
 constexpr double RadiansPerDegree = M_PI / 180.0;
 
+/** A pixel that a mask keeps, by column and row: the warp needs no division per pixel. */
+struct KeptPixel
+{
+  int column, row;
+};
+
 /**
- * moving(T^-1 p), bilinear, at each pixel p of `kept` (row-major indices); `valid` marks those
- * whose source lies inside. Only the pixels a mask keeps: the quality gate's 2D registrations of
- * masked halves (a tenth of a view or less) warp and count nothing else. On all threads.
+ * moving(T^-1 p), bilinear, at each pixel p of `kept`; `valid` marks those whose source lies
+ * inside. Only the pixels a mask keeps: the quality gate's 2D registrations of masked halves (a
+ * tenth of a view or less) warp and count nothing else. On all threads.
  */
 void WarpKept(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion,
-  const std::vector<uint32_t>& kept, std::vector<uint16_t>& out, std::vector<uint8_t>& valid)
+  const std::vector<KeptPixel>& kept, std::vector<uint16_t>& out, std::vector<uint8_t>& valid)
 {
   const double c = std::cos(-motion.rotation * RadiansPerDegree), s = std::sin(-motion.rotation * RadiansPerDegree);
   vtkSMPTools::For(size_t{ 0 }, kept.size(),
@@ -31,18 +37,19 @@ void WarpKept(const std::vector<uint16_t>& moving, int columns, int rows, const 
     {
       for (size_t k = k0; k < k1; ++k)
       {
-        const int row = static_cast<int>(kept[k] / static_cast<uint32_t>(columns));
-        const int column = static_cast<int>(kept[k] % static_cast<uint32_t>(columns));
+        const int row = kept[k].row, column = kept[k].column;
         // T^-1 p = R^-1 (p - center - shift) + center
         const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
         const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
-        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-        if (x0 < 0 || y0 < 0 || x0 + 1 >= columns || y0 + 1 >= rows)
+        // Inside when floor(x) and floor(x) + 1 are columns: 0 <= x < columns - 1 (NaN is not),
+        // where truncation is the floor (a call to floor per pixel costs more than the warp).
+        if (!(x >= 0.0 && y >= 0.0 && x < columns - 1 && y < rows - 1))
         {
           valid[k] = 0;
           out[k] = 0;
           continue;
         }
+        const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
         const double fx = x - x0, fy = y - y0;
         const uint16_t* p = moving.data() + static_cast<size_t>(y0) * columns + x0;
         const double top = p[0] + fx * (p[1] - p[0]), bottom = p[columns] + fx * (p[columns + 1] - p[columns]);
@@ -84,14 +91,15 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
     throw InputError("2D registration", "image sizes differ");
   }
   JointHistogram histogram(bins);
-  std::vector<uint32_t> kept; // the pixels the mask keeps, and their fixed values
+  std::vector<KeptPixel> kept; // the pixels the mask keeps, and their fixed values
   std::vector<uint16_t> fixedKept;
-  for (size_t i = 0; i < pixels; ++i)
-    if (!fixedMask || fixedMask[i])
-    {
-      kept.push_back(static_cast<uint32_t>(i));
-      fixedKept.push_back(fixed[i]);
-    }
+  for (int row = 0, i = 0; row < rows; ++row)
+    for (int column = 0; column < columns; ++column, ++i)
+      if (!fixedMask || fixedMask[i])
+      {
+        kept.push_back({ column, row });
+        fixedKept.push_back(fixed[i]);
+      }
   std::vector<uint16_t> warped(kept.size());
   std::vector<uint8_t> valid(kept.size());
   Motion2D motion;
