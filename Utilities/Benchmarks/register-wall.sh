@@ -1,51 +1,66 @@
 #!/usr/bin/env bash
 # What a user waits for: the wall time of whole `xpose register` processes (CT read included) on
 # X-rays that `xpose simulate` writes at the geometry's full panel, as a user's files come,
-# registered at --size. Per pose: the process's wall time, the verdict, the error against the
-# truth (translation mm, largest angle), the evaluations, each view's kept fraction and
-# result.json's timing_s; then the median and the largest wall time.
+# registered at SIZE. Per pose and build: the process's wall time, the verdict, the error
+# against the truth (translation mm, largest angle), the evaluations and result.json's
+# timing_s; then each build's median and largest wall time, and with two builds the ratio of
+# their medians, measured in this one run (the builds take turns on each pose).
 # Usage: register-wall.sh CT GEOMETRY [SIZE [PRESET [REGISTER_OPTIONS...]]]
-#   (XPOSE=path/to/xpose; default build/bin/xpose; SIZE 512x384; PRESET clinical)
+#   one build: XPOSE=path/to/xpose (default build/bin/xpose);
+#   builds compared: BUILDS="OLD_DIR NEW_DIR" (each holding bin/xpose and lib/; the X-rays are
+#   made by the last one). SIZE 512x384, PRESET clinical by default.
 set -euo pipefail
 ct=$1 geometry=$2 size=${3:-512x384} preset=${4:-clinical}
 shift $(($# < 4 ? $# : 4))
-xpose=${XPOSE:-build/bin/xpose}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-# Five fixed misalignments, 3-16 mm and up to 3 degrees, in room terms (mm, degrees).
-poses="4,-3,2,1,-1,2 -8,5,-10,-2,3,1 12,-6,4,2,2,-3 -3,9,6,-1,-2,-1 6,2,-14,3,1,2"
+run() { # BUILD_DIR_OR_EMPTY ARGS...: xpose from a build folder, or $XPOSE
+  local dir=$1
+  shift
+  if [ -n "$dir" ]; then LD_LIBRARY_PATH="$dir/lib" "$dir/bin/xpose" "$@"; else "${XPOSE:-build/bin/xpose}" "$@"; fi
+}
+builds=(${BUILDS:-""})
+# Five fixed misalignments, 3-16 mm and up to 3 degrees, in room terms (mm, degrees); POSES overrides.
+poses=${POSES:-"4,-3,2,1,-1,2 -8,5,-10,-2,3,1 12,-6,4,2,2,-3 -3,9,6,-1,-2,-1 6,2,-14,3,1,2"}
 for pose in $poses; do
   dir="$work/$pose"
-  "$xpose" simulate --ct "$ct" --geometry "$geometry" --pose "$pose" --preset "$preset" --out-dir "$dir/sim" > "$dir.sim.log" 2>&1
-  start=$(date +%s%N)
-  "$xpose" register --ct "$ct" --geometry "$geometry" --xray "$dir/sim/xray_A.png" --xray "$dir/sim/xray_B.png" \
-    --size "$size" "$@" --out-dir "$dir/reg" > "$dir.log" 2>&1 || true
-  end=$(date +%s%N)
-  echo "$pose $(((end - start) / 1000000))" >> "$work/walls.txt"
+  run "${builds[-1]}" simulate --ct "$ct" --geometry "$geometry" --pose "$pose" --preset "$preset" --out-dir "$dir/sim" > "$dir.sim.log" 2>&1
+  for b in "${!builds[@]}"; do
+    start=$(date +%s%N)
+    run "${builds[$b]}" register --ct "$ct" --geometry "$geometry" --xray "$dir/sim/xray_A.png" --xray "$dir/sim/xray_B.png" \
+      --size "$size" "$@" --out-dir "$dir/reg-$b" > "$dir.$b.log" 2>&1 || true
+    end=$(date +%s%N)
+    echo "$pose $b $(((end - start) / 1000000))" >> "$work/walls.txt"
+  done
 done
-python3 - "$work" <<'PY'
+python3 - "$work" "${BUILDS:-${XPOSE:-build/bin/xpose}}" <<'PY'
 import json, math, sys
-work = sys.argv[1]
-walls = []
-print("| pose (mm, deg) | wall (s) | status | translation error (mm) | largest angle error (deg) | evaluations | kept A / B | timing_s: prealign, fine, total |")
+work, names = sys.argv[1], sys.argv[2].split()
+walls = {}
+print("| pose (mm, deg) | build | wall (s) | status | translation error (mm) | largest angle error (deg) | evaluations | timing_s: read, prealign, fine, total |")
 print("|---|---|---|---|---|---|---|---|")
 for line in open(f"{work}/walls.txt"):
-    pose, ms = line.split()
+    pose, b, ms = line.split()
     wall = int(ms) / 1000.0
-    walls.append(wall)
+    name = names[int(b)]
+    walls.setdefault(name, []).append(wall)
     try:
-        r = json.load(open(f"{work}/{pose}/reg/result.json"))
+        r = json.load(open(f"{work}/{pose}/reg-{b}/result.json"))
     except OSError:
-        print(f"| {pose} | {wall:.2f} | no result (see the log) | | | | | |")
+        print(f"| {pose} | {name} | {wall:.2f} | no result (see the log) | | | | |")
         continue
     truth = json.load(open(f"{work}/{pose}/sim/truth.json"))["misalignment"]
     found = r["misalignment"]
     dt = math.dist(found["translation_mm"], truth["translation_mm"])
     da = max(abs(found["rotation_deg"][k] - truth["rotation_deg"][k]) for k in ("pitch", "roll", "yaw"))
     t = r["timing_s"]
-    kept = r["mask_valid_fraction"]
-    print(f"| {pose} | {wall:.2f} | {r['status']} | {dt:.3f} | {da:.3f} | {r['evaluations']} | "
-          f"{kept['A']:.2f} / {kept['B']:.2f} | {t['prealign']:.2f}, {t['fine']:.2f}, {t['total']:.2f} |")
-walls.sort()
-print(f"median wall {walls[len(walls) // 2]:.2f} s, largest {walls[-1]:.2f} s over {len(walls)} registrations")
+    print(f"| {pose} | {name} | {wall:.2f} | {r['status']} | {dt:.3f} | {da:.3f} | {r['evaluations']} | "
+          f"{t.get('read', 0):.2f}, {t.get('prealign', 0):.2f}, {t.get('fine', 0):.2f}, {t.get('total', 0):.2f} |")
+medians = {}
+for name, w in walls.items():
+    w.sort()
+    medians[name] = w[len(w) // 2]
+    print(f"{name}: median wall {medians[name]:.2f} s, largest {w[-1]:.2f} s over {len(w)} registrations")
+if len(names) == 2:
+    print(f"median {names[1]} / {names[0]}: {medians[names[1]] / medians[names[0]]:.2f}")
 PY
