@@ -42,7 +42,7 @@ void WarpKept(const std::vector<uint16_t>& moving, int columns, int rows, const 
         const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
         const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
         // Inside when floor(x) and floor(x) + 1 are columns: 0 <= x < columns - 1 (NaN is not),
-        // where truncation is the floor (a call to floor per pixel costs more than the warp).
+        // where truncation is the floor, without a call to floor per pixel.
         if (!(x >= 0.0 && y >= 0.0 && x < columns - 1 && y < rows - 1))
         {
           valid[k] = 0;

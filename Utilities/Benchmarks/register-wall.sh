@@ -20,7 +20,7 @@ run() { # BUILD_DIR_OR_EMPTY ARGS...: xpose from a build folder, or $XPOSE
   if [ -n "$dir" ]; then LD_LIBRARY_PATH="$dir/lib" "$dir/bin/xpose" "$@"; else "${XPOSE:-build/bin/xpose}" "$@"; fi
 }
 builds=(${BUILDS:-""})
-# Five fixed misalignments, 3-16 mm and up to 3 degrees, in room terms (mm, degrees); POSES overrides.
+# Five fixed misalignments, 5-16 mm and up to 3 degrees, in room terms (mm, degrees); POSES overrides.
 poses=${POSES:-"4,-3,2,1,-1,2 -8,5,-10,-2,3,1 12,-6,4,2,2,-3 -3,9,6,-1,-2,-1 6,2,-14,3,1,2"}
 for pose in $poses; do
   dir="$work/$pose"
