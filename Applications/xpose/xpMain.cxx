@@ -22,7 +22,7 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     "(0.41: the detail a DRR of that CT holds; 0: off)")->capture_default_str();
   command->add_option("--fine-render-stride", settings.fineRenderStride,
     "The refinement casts the DRR's rays on every N-th pixel of each row and column and interpolates the rest "
-    "(0: 2 where two pixels at the isocentre span at most the CT's finest voxel spacing, else 1)")
+    "(0: per panel axis, 2 where two pixels at the isocentre span at most the CT's voxel spacing along that axis, else 1)")
     ->capture_default_str();
   command->add_option("--search-render-stride", settings.searchRenderStride,
     "The same for the coarse searches' half-size DRRs (0: as for the refinement, for the CT they render; 1: every ray)")->capture_default_str();

@@ -239,8 +239,11 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     faces["left_out_last_slice"] = (r.endFaces[v].facesToLeaveOut & LastSliceFace) != 0;
   }
   root["drr_count"] = static_cast<Json::Int64>(r.drrCount);
-  root["render_strides"]["search"] = r.searchRenderStride;
-  root["render_strides"]["fine"] = r.fineRenderStride;
+  for (const auto& [name, stride] : { std::make_pair("search", r.searchRenderStride), std::make_pair("fine", r.fineRenderStride) })
+  {
+    root["render_strides"][name]["columns"] = stride.columns;
+    root["render_strides"][name]["rows"] = stride.rows;
+  }
   root["evaluations"] = r.evaluations;
   Json::Value& timing = root["timing_s"];
   timing["read"] = r.readSeconds;
@@ -416,8 +419,14 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.drrCount = static_cast<long long>(f.Number("drr_count"));
   if (f.Has("render_strides")) // absent in records written before the strides
   {
-    r.searchRenderStride = static_cast<int>(f.Number("render_strides.search"));
-    r.fineRenderStride = static_cast<int>(f.Number("render_strides.fine"));
+    const auto read = [&f](const std::string& at)
+    {
+      if (f.At(at).isNumeric()) // one number for both axes before the strides per axis
+        return RenderStride{ static_cast<int>(f.Number(at)), static_cast<int>(f.Number(at)) };
+      return RenderStride{ static_cast<int>(f.Number(at + ".columns")), static_cast<int>(f.Number(at + ".rows")) };
+    };
+    r.searchRenderStride = read("render_strides.search");
+    r.fineRenderStride = read("render_strides.fine");
   }
   r.evaluations = static_cast<int>(f.Number("evaluations"));
   r.readSeconds = f.Number("timing_s.read");

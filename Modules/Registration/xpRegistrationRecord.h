@@ -53,7 +53,7 @@ struct RegistrationRecord
   double objective = 0.0;
   std::vector<GateFailure> failures;
   long long drrCount = 0;
-  int searchRenderStride = 1, fineRenderStride = 1; ///< rays cast on every N-th pixel (StereoSimilarity::SetRenderStride)
+  RenderStride searchRenderStride, fineRenderStride; ///< rays cast on every N-th pixel of rows and columns (StereoSimilarity::SetRenderStride)
   int evaluations = 0;
   double readSeconds = 0.0, prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
   double searchApartMM = 0.0, searchApartDegrees = 0.0, searchObjectiveRatio = 1.0;

@@ -848,8 +848,9 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
     StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins,
       { settings.equalizedLevels, 0.0, correlationMM });
-    result.searchRenderStride =
-      settings.searchRenderStride > 0 ? settings.searchRenderStride : RenderStrideFor(coarseVolume, coarseSearch, isocenter);
+    result.searchRenderStride = settings.searchRenderStride > 0
+      ? RenderStride{ settings.searchRenderStride, settings.searchRenderStride }
+      : RenderStrideFor(coarseVolume, coarseSearch, plannedCTToRoom, isocenter);
     searchSimilarity.SetRenderStride(result.searchRenderStride);
     searchSimilarity.SetCostSink(&cost);
     std::unique_ptr<StereoSimilarity> quarter;
@@ -885,7 +886,8 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
       settings.boneShadowFineMarginMM, cutPoints);
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
     { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
-  result.fineRenderStride = settings.fineRenderStride > 0 ? settings.fineRenderStride : RenderStrideFor(volume, masked, isocenter);
+  result.fineRenderStride = settings.fineRenderStride > 0 ? RenderStride{ settings.fineRenderStride, settings.fineRenderStride }
+                                                          : RenderStrideFor(volume, masked, plannedCTToRoom, isocenter);
   fine.SetRenderStride(result.fineRenderStride);
   fine.SetCostSink(&cost);
   const PoseOptimizerSettings fineSettings = RefinementSettings(settings);

@@ -73,8 +73,9 @@ struct StereoRegistrationSettings
    *  "A verdict...", 7). 0 = off. The coarse stages keep the shading, which helps them travel. */
   double fineHighPassMM = 5.0;
   /** The refinement (and the landscape, which reads its objective) renders the DRR's rays on
-   *  every this-th pixel and interpolates the rest (StereoSimilarity::SetRenderStride); 1: all;
-   *  0: RenderStrideFor the CT and the views. */
+   *  every this-th pixel of rows and columns and interpolates the rest
+   *  (StereoSimilarity::SetRenderStride); 1: all; 0: RenderStrideFor the CT and the views, per
+   *  panel axis. */
   int fineRenderStride = 0;
   /** The same for the coarse searches' half-size DRRs (of the half-resolution CT where used);
    *  every ray by default: at stride 2 the coarser searches left the refinement more to do, and
@@ -226,7 +227,7 @@ struct StereoRegistrationResult
   std::vector<std::vector<float>> entropyMaps; ///< empty without entropy masks
   std::vector<std::vector<uint16_t>> drrs;     ///< masked 12-bit DRRs at the result
   long long drrCount = 0;
-  int searchRenderStride = 1, fineRenderStride = 1; ///< as used
+  RenderStride searchRenderStride, fineRenderStride; ///< as used
   int evaluations = 0;
   bool converged = false;
   double searchDisagreementMM = 0.0;     ///< between the two searches' ends (refined, when both were)

@@ -26,18 +26,40 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
 
 } // namespace
 
-double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
+/** The panel's pixel spacings shrunk by the magnification where the central ray passes the isocentre. */
+Eigen::Vector2d PixelSpacingsAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
 {
   const double toIsocenter = (view.source - roomIsocenter).dot(view.NormalTowardsSource());
-  return view.pixelSpacing.maxCoeff() * toIsocenter / view.SourceToPanelDistance();
+  return view.pixelSpacing * toIsocenter / view.SourceToPanelDistance();
 }
 
-int RenderStrideFor(const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const Eigen::Vector3d& roomIsocenter)
+double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
 {
-  double widestPixelAtIsocenter = 0.0;
+  return PixelSpacingsAtIsocenter(view, roomIsocenter).maxCoeff();
+}
+
+double CTSpacingAlong(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomDirection)
+{
+  const Eigen::Vector3d inCT = plannedCTToRoom.linear().transpose() * roomDirection.normalized();
+  return 1.0 / (volume.IndexToCT().linear().inverse() * inCT).norm();
+}
+
+RenderStride RenderStrideFor(const AttenuationVolume& volume, const std::vector<RegistrationView>& views,
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomIsocenter)
+{
+  const auto strideAlong = [&](const XRayView& view, int axis)
+  {
+    const Eigen::Vector3d& direction = axis == 0 ? view.rowDirection : view.columnDirection;
+    const double pixelAtIsocenter = PixelSpacingsAtIsocenter(view, roomIsocenter)[axis];
+    return 2.0 * pixelAtIsocenter <= 1.1 * CTSpacingAlong(volume, plannedCTToRoom, direction) ? 2 : 1;
+  };
+  RenderStride stride{ 2, 2 };
   for (const RegistrationView& item : views)
-    widestPixelAtIsocenter = std::max(widestPixelAtIsocenter, PixelSpacingAtIsocenter(item.view, roomIsocenter));
-  return 2.0 * widestPixelAtIsocenter <= 1.1 * volume.MinimumSpacing() ? 2 : 1;
+  {
+    stride.columns = std::min(stride.columns, strideAlong(item.view, 0));
+    stride.rows = std::min(stride.rows, strideAlong(item.view, 1));
+  }
+  return stride;
 }
 
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
@@ -161,37 +183,39 @@ void StereoSimilarity::Measure(size_t v)
     this->LastNCC[v] = this->CorrelateDRR(v);
 }
 
-void StereoSimilarity::SetRenderStride(int stride)
+void StereoSimilarity::SetRenderStride(const RenderStride& stride)
 {
-  if (stride < 1 || stride > 8)
-    throw InputError("render stride", "must be 1 to 8, not " + std::to_string(stride));
+  for (int step : { stride.columns, stride.rows })
+    if (step < 1 || step > 8)
+      throw InputError("render stride", "must be 1 to 8, not " + std::to_string(step));
   this->Stride = stride;
   this->Grids.clear();
   this->Traced.clear();
   this->NodeIntegrals.clear();
+  const int sc = stride.columns, sr = stride.rows;
   for (const RegistrationView& item : this->Items)
   {
     const DetectorGrid full = DetectorGrid::TopRowFirst(item.view);
-    if (stride == 1)
+    if (sc == 1 && sr == 1)
     {
       this->Grids.push_back(full);
       this->Traced.emplace_back(full.columns, full.rows, item.mask.empty() ? nullptr : item.mask.data());
       continue;
     }
-    // Node (c', r') sits on pixel (stride c', stride r'); the last nodes reach past the last pixel.
+    // Node (c', r') sits on pixel (sc c', sr r'); the last nodes reach past the last pixel.
     DetectorGrid grid = full;
-    grid.columnStep = stride * full.columnStep;
-    grid.rowStep = stride * full.rowStep;
-    grid.columns = (full.columns - 1 + stride - 1) / stride + 1;
-    grid.rows = (full.rows - 1 + stride - 1) / stride + 1;
+    grid.columnStep = sc * full.columnStep;
+    grid.rowStep = sr * full.rowStep;
+    grid.columns = (full.columns - 1 + sc - 1) / sc + 1;
+    grid.rows = (full.rows - 1 + sr - 1) / sr + 1;
     std::vector<uint8_t> nodes(static_cast<size_t>(grid.columns) * grid.rows, 0);
     for (int r = 0; r < full.rows; ++r)
       for (int c = 0; c < full.columns; ++c)
       {
         if (!item.mask.empty() && !item.mask[static_cast<size_t>(r) * full.columns + c])
           continue;
-        const int c0 = c / stride, r0 = r / stride;
-        const int c1 = c0 + (c % stride != 0), r1 = r0 + (r % stride != 0);
+        const int c0 = c / sc, r0 = r / sr;
+        const int c1 = c0 + (c % sc != 0), r1 = r0 + (r % sr != 0);
         for (int rr : { r0, r1 })
           for (int cc : { c0, c1 })
             nodes[static_cast<size_t>(rr) * grid.columns + cc] = 1;
@@ -205,19 +229,19 @@ void StereoSimilarity::SetRenderStride(int stride)
 long long StereoSimilarity::Render(size_t v, const Eigen::Isometry3d& ctToRoom)
 {
   const RegistrationView& item = this->Items[v];
-  if (this->Stride == 1)
+  if (this->Stride == RenderStride{})
     return RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, this->Grids[v], this->Traced[v], this->Integrals[v].data());
   const DetectorGrid& grid = this->Grids[v];
   const long long rays =
     RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, grid, this->Traced[v], this->NodeIntegrals[v].data());
   const float* nodes = this->NodeIntegrals[v].data();
   float* out = this->Integrals[v].data();
-  const int columns = item.view.Columns(), rows = item.view.Rows(), stride = this->Stride;
-  const float step = 1.0f / static_cast<float>(stride);
+  const int columns = item.view.Columns(), rows = item.view.Rows(), sc = this->Stride.columns, sr = this->Stride.rows;
+  const float columnStep = 1.0f / static_cast<float>(sc), rowStep = 1.0f / static_cast<float>(sr);
   for (int r = 0; r < rows; ++r)
   {
-    const int r0 = r / stride, dr = r % stride;
-    const float fr = dr * step;
+    const int r0 = r / sr, dr = r % sr;
+    const float fr = dr * rowStep;
     const float* row0 = nodes + static_cast<size_t>(r0) * grid.columns;
     const float* row1 = dr ? row0 + grid.columns : row0;
     for (int c = 0; c < columns; ++c)
@@ -225,9 +249,9 @@ long long StereoSimilarity::Render(size_t v, const Eigen::Isometry3d& ctToRoom)
       const size_t i = static_cast<size_t>(r) * columns + c;
       if (!item.mask.empty() && !item.mask[i])
         continue;
-      const int c0 = c / stride, dc = c % stride;
+      const int c0 = c / sc, dc = c % sc;
       const int c1 = dc ? c0 + 1 : c0;
-      const float fc = dc * step;
+      const float fc = dc * columnStep;
       const float top = row0[c0] + fc * (row0[c1] - row0[c0]);
       const float bottom = row1[c0] + fc * (row1[c1] - row1[c0]);
       out[i] = top + fr * (bottom - top);

@@ -66,16 +66,33 @@ struct SimilarityCost
  *  isocentre: the panel's spacing shrunk by the magnification there. */
 VTKXPREGISTRATION_EXPORT double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter);
 
+/** Rays cast on every `columns`-th pixel along a row and on every `rows`-th row; the pixels
+ *  between are interpolated bilinearly (StereoSimilarity::SetRenderStride). */
+struct RenderStride
+{
+  int columns = 1;
+  int rows = 1;
+  bool operator==(const RenderStride& other) const { return columns == other.columns && rows == other.rows; }
+};
+
+/** The CT's sample spacing along a room direction (at the planned pose): the voxel's extent along
+ *  it, seen as the ellipsoid its spacings span (1/|A^-1 d| for the index-to-CT matrix A). Along a
+ *  CT axis, that axis's spacing; 1 mm for an isotropic 1 mm CT in any direction. */
+VTKXPREGISTRATION_EXPORT double CTSpacingAlong(
+  const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomDirection);
+
 /**
- * The render stride (StereoSimilarity::SetRenderStride) for DRRs of `volume` on these views: 2
- * where two pixels at the isocentre span no more than the CT's finest voxel spacing (within
- * 10 %: over a body 300 mm deep the magnification varies by about 15 % either side of the
- * isocentre's), so that the rendered nodes are no farther apart than the CT's own samples along
- * any axis and bilinear interpolation between them loses no detail the CT holds; otherwise 1. A
- * CT of 0.8 mm pixels and 3 mm slices keeps every ray at 0.52 mm per pixel at the isocentre.
+ * The render stride (StereoSimilarity::SetRenderStride) for DRRs of `volume` on these views, per
+ * panel axis: 2 where two pixels at the isocentre span no more than the CT's sample spacing along
+ * that axis (CTSpacingAlong; within 10 %: over a body 300 mm deep the magnification varies by
+ * about 15 % either side of the isocentre's), so that the rendered nodes are no farther apart than
+ * the CT's own samples and bilinear interpolation between them loses no detail the CT holds;
+ * otherwise 1. A CT of 0.9 mm pixels and 3 mm slices, seen on 0.52 mm pixels at the isocentre by
+ * panels whose columns run along the slices, casts every column of every second row: the slices
+ * allow nodes 1 mm apart along them, the pixels do not across.
  */
-VTKXPREGISTRATION_EXPORT int RenderStrideFor(
-  const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const Eigen::Vector3d& roomIsocenter);
+VTKXPREGISTRATION_EXPORT RenderStride RenderStrideFor(const AttenuationVolume& volume, const std::vector<RegistrationView>& views,
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomIsocenter);
 
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
 {
@@ -106,13 +123,15 @@ public:
   const std::vector<uint16_t>& LastDRRLevels(size_t v) const { return this->Equalize ? this->DRRRanks[v] : this->LastDRR(v); }
   long long RenderedDRRs() const { return this->DRRCount; }
   /**
-   * Render the DRR's rays on every `stride`-th pixel of each row and column only, and fill the
-   * pixels between by bilinear interpolation (1: every pixel rendered, the default). A CT of 1 mm
-   * voxels seen on 0.5 mm pixels at the isocentre has no detail that the interpolation loses at
-   * stride 2, and a quarter of the rays are cast. Call before the first evaluation.
+   * Render the DRR's rays on every `stride.columns`-th pixel of each row and on every
+   * `stride.rows`-th row only, and fill the pixels between by bilinear interpolation (1 and 1:
+   * every pixel rendered, the default). A CT of 1 mm voxels seen on 0.5 mm pixels at the
+   * isocentre has no detail that the interpolation loses at stride 2 and 2, and a quarter of the
+   * rays are cast. Call before the first evaluation.
    */
-  void SetRenderStride(int stride);
-  int RenderStride() const { return this->Stride; }
+  void SetRenderStride(const RenderStride& stride);
+  /** The same stride along rows and columns. */
+  void SetRenderStride(int stride) { this->SetRenderStride(RenderStride{ stride, stride }); }
   /** Every later evaluation also adds its cost to `sink` (null: none); it must outlive this. */
   void SetCostSink(SimilarityCost* sink) { this->CostSink = sink; }
   const std::vector<RegistrationView>& Views() const { return this->Items; }
@@ -133,7 +152,7 @@ private:
   std::vector<RegistrationView> Items;
   std::vector<JointHistogram> Histograms; ///< per view: the views' metrics run side by side
   std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
-  int Stride = 1;
+  RenderStride Stride;
   /** Per view, built once per stride (the mask is fixed): where the rays are cast (the panel, or
    *  every stride-th pixel's node), which of them (the valid pixels, or the nodes their
    *  interpolation reads), and, with a stride, the nodes' line integrals. */

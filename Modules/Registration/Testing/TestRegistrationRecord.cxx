@@ -4,6 +4,9 @@
 #include "xpRegistrationRecord.h"
 
 #include <gtest/gtest.h>
+#include <vtk_jsoncpp.h>
+
+#include <sstream>
 
 namespace
 {
@@ -26,8 +29,8 @@ xp::RegistrationRecord FailedRecord()
   result.objective = 0.7;
   result.failures = { { xp::GateCode::LowExplained, 1, "view right: the final DRR explains 0.120" } };
   result.drrCount = 1234;
-  result.searchRenderStride = 2;
-  result.fineRenderStride = 3;
+  result.searchRenderStride = { 2, 2 };
+  result.fineRenderStride = { 1, 3 };
   result.evaluations = 600;
   result.stages = { { "coarse search", 0, 1.5 }, { "fine", 400, 2.25 } };
   result.objectiveTrace = { 0.1, 0.3, 0.7 };
@@ -65,8 +68,10 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_EQ(read.failures[0].view, 1);
   EXPECT_EQ(read.Reasons(), written.Reasons());
   EXPECT_EQ(read.drrCount, 1234);
-  EXPECT_EQ(read.searchRenderStride, 2);
-  EXPECT_EQ(read.fineRenderStride, 3);
+  EXPECT_EQ(read.searchRenderStride.columns, 2);
+  EXPECT_EQ(read.searchRenderStride.rows, 2);
+  EXPECT_EQ(read.fineRenderStride.columns, 1) << "columns and rows not swapped";
+  EXPECT_EQ(read.fineRenderStride.rows, 3);
   EXPECT_DOUBLE_EQ(read.totalSeconds, 4.5);
   ASSERT_EQ(read.stages.size(), 2u);
   EXPECT_EQ(read.stages[1].firstEvaluation, 400);
@@ -130,6 +135,22 @@ TEST(RegistrationRecord, WritesEachHeldOutLeadUnderItsAxisAndSide)
   EXPECT_NE(compact.find("\"tx_mm\":[-0.01,0.02]"), std::string::npos) << json;
   EXPECT_NE(compact.find("\"roll_deg\":[-0.09,0.1]"), std::string::npos) << json;
   EXPECT_NE(compact.find("\"yaw_deg\":[-0.11,0.12]"), std::string::npos) << json;
+}
+
+TEST(RegistrationRecord, ReadsOneStrideForBothAxesFromEarlierRecords)
+{
+  // Records written before the strides per panel axis hold one number for rows and columns.
+  xp::RegistrationRecord written = FailedRecord();
+  written.fineRenderStride = { 1, 2 };
+  const std::string current = xp::RegistrationRecordJSON(written);
+  Json::Value root;
+  std::istringstream(current) >> root;
+  ASSERT_EQ(root["render_strides"]["fine"]["rows"].asInt(), 2);
+  root["render_strides"]["search"] = 1;
+  root["render_strides"]["fine"] = 2;
+  const xp::RegistrationRecord read = xp::ParseRegistrationRecord(Json::writeString(Json::StreamWriterBuilder(), root), "old.json");
+  EXPECT_EQ(read.searchRenderStride, (xp::RenderStride{ 1, 1 }));
+  EXPECT_EQ(read.fineRenderStride, (xp::RenderStride{ 2, 2 }));
 }
 
 TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)

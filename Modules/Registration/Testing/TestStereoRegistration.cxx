@@ -131,16 +131,19 @@ TEST(StereoSimilarity, RenderStrideCastsEveryNthRayAndInterpolatesBetween)
   xp::SimilarityCost allRays, someRays;
   everyRay.SetCostSink(&allRays);
   everyRay.Evaluate(truth);
-  for (const int stride : { 2, 3 })
+  // Both axes alike, and each alone (a CT's slices may allow nodes farther apart than its pixels).
+  for (const xp::RenderStride stride : { xp::RenderStride{ 2, 2 }, xp::RenderStride{ 3, 3 }, xp::RenderStride{ 1, 2 }, xp::RenderStride{ 3, 1 } })
   {
+    const int sc = stride.columns, sr = stride.rows;
+    const std::string name = std::to_string(sc) + "x" + std::to_string(sr);
     xp::StereoSimilarity sparse(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, 32, plain);
     sparse.SetRenderStride(stride);
     someRays = {};
     sparse.SetCostSink(&someRays);
     sparse.Evaluate(truth);
-    // The nodes that valid pixels read, about one pixel in stride^2, and no others.
-    EXPECT_LT(someRays.rays, allRays.rays / (stride * stride) + 2 * (86 + 114));
-    EXPECT_GT(someRays.rays, allRays.rays / (stride * stride));
+    // The nodes that valid pixels read, about one pixel in sc sr, and no others.
+    EXPECT_LT(someRays.rays, allRays.rays / (sc * sr) + 2 * (86 + 114)) << name;
+    EXPECT_GT(someRays.rays, allRays.rays / (sc * sr)) << name;
     for (size_t v = 0; v < views.size(); ++v)
     {
       const std::vector<uint16_t>& exact = everyRay.LastDRR(v);
@@ -150,38 +153,42 @@ TEST(StereoSimilarity, RenderStrideCastsEveryNthRayAndInterpolatesBetween)
         for (int c = 0; c < 160; ++c)
         {
           const size_t i = static_cast<size_t>(r) * 160 + c;
+          const bool nodeColumn = c % sc == 0, nodeRow = r % sr == 0;
           if (!views[v].mask[i])
             EXPECT_EQ(interpolated[i], 0);
-          else if (c % stride == 0 && r % stride == 0)
-            EXPECT_EQ(interpolated[i], exact[i]) << "node " << c << ", " << r; // the same ray
-          else if ((r % stride == 0) != (c % stride == 0))
+          else if (nodeColumn && nodeRow)
+            EXPECT_EQ(interpolated[i], exact[i]) << name << " node " << c << ", " << r; // the same ray
+          else if (nodeColumn != nodeRow)
           {
             // Between two nodes of a row or a column: the line integrals interpolated, so the
             // transmission is the nodes' weighted geometric mean.
-            const int offset = std::max(c % stride, r % stride);
-            const size_t step = c % stride ? 1 : 160;
-            if ((c % stride ? c : r) + stride - offset >= (c % stride ? 160 : 120))
+            const bool alongRow = nodeRow;
+            const int offset = alongRow ? c % sc : r % sr, span = alongRow ? sc : sr;
+            const size_t step = alongRow ? 1 : 160;
+            if ((alongRow ? c : r) + span - offset >= (alongRow ? 160 : 120))
               continue; // beyond the last node
-            const double w = double(offset) / stride;
-            const double before = exact[i - offset * step], after = exact[i + (stride - offset) * step];
+            const double w = double(offset) / span;
+            const double before = exact[i - offset * step], after = exact[i + (span - offset) * step];
             if (before < 200 || after < 200)
               continue; // the 12-bit rounding of dark nodes decides there
-            EXPECT_NEAR(interpolated[i], std::pow(before, 1.0 - w) * std::pow(after, w), 2.0) << "pixel " << c << ", " << r;
+            EXPECT_NEAR(interpolated[i], std::pow(before, 1.0 - w) * std::pow(after, w), 2.0)
+              << name << " pixel " << c << ", " << r;
             ++checked;
           }
         }
-      EXPECT_GT(checked, 500);
+      EXPECT_GT(checked, 500) << name;
     }
     for (const char* off : { "4,-2,1.5,1,-1,2", "3,-2,2.5,1,-1,2", "0,0,0,0,0,0" })
-      EXPECT_GT(sparse.Evaluate(truth), sparse.Evaluate(xp::Pose::Parse(off, "off"))) << off;
+      EXPECT_GT(sparse.Evaluate(truth), sparse.Evaluate(xp::Pose::Parse(off, "off"))) << name << " " << off;
   }
   xp::StereoSimilarity wrong(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, 32, plain);
   EXPECT_THROW(wrong.SetRenderStride(0), xp::InputError);
+  EXPECT_THROW(wrong.SetRenderStride(xp::RenderStride{ 2, 9 }), xp::InputError);
 }
 
 // Two pixels at the isocentre (the panel's pixel over the magnification, 1.5 here) against the CT's
-// finest voxel spacing: the phantom's 2 mm voxels allow stride 2 at 256x192 (1.04 mm at the
-// isocentre) and not at 240x180 (1.11 mm).
+// sample spacing along each panel axis: the phantom's 2 mm voxels allow stride 2 at 256x192
+// (1.04 mm at the isocentre) and not at 240x180 (1.11 mm).
 TEST(StereoSimilarity, RenderStrideForKeepsNodesWithinTheCTsVoxel)
 {
   Scene scene; // 2 mm voxels
@@ -192,18 +199,48 @@ TEST(StereoSimilarity, RenderStrideForKeepsNodesWithinTheCTsVoxel)
       views.push_back({ view, std::vector<uint16_t>(static_cast<size_t>(columns) * rows), {} });
     return views;
   };
-  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(256, 192), Eigen::Vector3d::Zero()), 2);
-  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(240, 180), Eigen::Vector3d::Zero()), 1);
-  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(1024, 768), Eigen::Vector3d::Zero()), 2);
+  const auto strideFor = [&](const xp::AttenuationVolume& volume, int columns, int rows, const Eigen::Vector3d& isocenter)
+  {
+    const xp::RenderStride stride = xp::RenderStrideFor(volume, viewsAt(columns, rows), scene.planned, isocenter);
+    return std::to_string(stride.columns) + "x" + std::to_string(stride.rows);
+  };
+  EXPECT_EQ(strideFor(scene.volume, 256, 192, Eigen::Vector3d::Zero()), "2x2");
+  EXPECT_EQ(strideFor(scene.volume, 240, 180, Eigen::Vector3d::Zero()), "1x1");
+  EXPECT_EQ(strideFor(scene.volume, 1024, 768, Eigen::Vector3d::Zero()), "2x2");
   // An isocentre nearer the source magnifies more: the same pixels are finer there.
-  EXPECT_EQ(xp::RenderStrideFor(scene.volume, viewsAt(240, 180), Eigen::Vector3d(0.0, 0.0, -100.0)), 2);
-  // Pixels of 0.8 mm and slices of 3 mm: the finest spacing decides, not the slices.
+  EXPECT_EQ(strideFor(scene.volume, 240, 180, Eigen::Vector3d(0.0, 0.0, -100.0)), "2x2");
+  // Pixels of 0.8 mm and slices of 3 mm. The panels' columns run along the patient (room y, the
+  // CT's slice axis): nodes 1.04 mm apart down a column stay within a slice, along a row they
+  // would skip the CT's pixels.
   const std::vector<float> water(16 * 16 * 16, 0.0f);
   Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
   indexToCT.linear() = Eigen::Vector3d(0.8, 0.8, 3.0).asDiagonal();
   const xp::AttenuationVolume thinPixels(water.data(), Eigen::Vector3i(16, 16, 16), indexToCT, xp::WaterAttenuationPerMM);
-  EXPECT_EQ(xp::RenderStrideFor(thinPixels, viewsAt(256, 192), Eigen::Vector3d::Zero()), 1);
-  EXPECT_EQ(xp::RenderStrideFor(thinPixels, viewsAt(1024, 768), Eigen::Vector3d::Zero()), 2);
+  EXPECT_EQ(strideFor(thinPixels, 256, 192, Eigen::Vector3d::Zero()), "1x2");
+  EXPECT_EQ(strideFor(thinPixels, 1024, 768, Eigen::Vector3d::Zero()), "2x2");
+  // Thick along the CT's x instead: down a column the 0.8 mm slices decide, along a row (the
+  // oblique beam's mix of the CT's x and y) the finer y.
+  indexToCT.linear() = Eigen::Vector3d(3.0, 0.8, 0.8).asDiagonal();
+  const xp::AttenuationVolume thickColumns(water.data(), Eigen::Vector3i(16, 16, 16), indexToCT, xp::WaterAttenuationPerMM);
+  EXPECT_EQ(strideFor(thickColumns, 256, 192, Eigen::Vector3d::Zero()), "1x1");
+}
+
+TEST(StereoSimilarity, CTSpacingAlongADirectionIsTheVoxelsExtentAlongIt)
+{
+  const std::vector<float> water(8 * 8 * 8, 0.0f);
+  Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+  indexToCT.linear() = Eigen::Vector3d(0.8, 1.0, 3.0).asDiagonal();
+  const xp::AttenuationVolume volume(water.data(), Eigen::Vector3i(8, 8, 8), indexToCT, xp::WaterAttenuationPerMM);
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  EXPECT_NEAR(xp::CTSpacingAlong(volume, identity, Eigen::Vector3d::UnitX()), 0.8, 1e-12);
+  EXPECT_NEAR(xp::CTSpacingAlong(volume, identity, Eigen::Vector3d::UnitY()), 1.0, 1e-12);
+  EXPECT_NEAR(xp::CTSpacingAlong(volume, identity, -Eigen::Vector3d::UnitZ()), 3.0, 1e-12);
+  // Between x and z: 1 / |(cos/0.8, sin/3)| at 45 degrees.
+  EXPECT_NEAR(xp::CTSpacingAlong(volume, identity, Eigen::Vector3d(1.0, 0.0, 1.0)), 1.0 / std::hypot(M_SQRT1_2 / 0.8, M_SQRT1_2 / 3.0), 1e-12);
+  // The CT turned a quarter about room x: its slice axis now lies along room y.
+  const Eigen::Isometry3d turned(Eigen::AngleAxisd(M_PI / 2.0, Eigen::Vector3d::UnitX()));
+  EXPECT_NEAR(xp::CTSpacingAlong(volume, turned, Eigen::Vector3d::UnitY()), 3.0, 1e-12);
+  EXPECT_NEAR(xp::CTSpacingAlong(volume, turned, Eigen::Vector3d::UnitZ()), 1.0, 1e-12);
 }
 
 TEST(PoseOptimizer, RecoversAKnownMisalignmentWithTheRightSigns)
