@@ -198,16 +198,21 @@ void AttenuationVolume::Store(const HU* hounsfield, const Eigen::Vector3i& array
     });
 }
 
-AttenuationVolume AttenuationVolume::Halved() const
+AttenuationVolume AttenuationVolume::Halved(const Eigen::Vector3i& factors) const
 {
-  // Half voxel i is centred where original voxels 2i and 2i + 1 meet; only the half voxels
-  // that overlap the stored box can hold attenuation.
+  if (((factors.array() != 1) && (factors.array() != 2)).any())
+    throw Error("halved volume: each axis's factor must be 1 or 2");
+  // Along a halved axis, half voxel i is centred where original voxels 2i and 2i + 1 meet; only
+  // the half voxels that overlap the stored box can hold attenuation.
+  const Eigen::Vector3i less = factors - Eigen::Vector3i::Ones();
   AttenuationVolume half;
-  half.Dims = (this->Dims + Eigen::Vector3i::Ones()) / 2;
-  half.CTIndexToCT = this->CTIndexToCT * Eigen::Translation3d(0.5, 0.5, 0.5) * Eigen::Scaling(2.0);
+  half.Dims = (this->Dims + less).cwiseQuotient(factors);
+  half.CTIndexToCT =
+    this->CTIndexToCT * Eigen::Translation3d(0.5 * less.cast<double>()) * Eigen::Scaling(factors.cast<double>());
   half.Water = this->Water;
-  half.Origin = this->Origin / 2;
-  const Eigen::Vector3i size = (this->Origin + this->StoredDimensions() - Eigen::Vector3i::Ones()) / 2 - half.Origin +
+  half.Origin = this->Origin.cwiseQuotient(factors);
+  const Eigen::Vector3i size =
+    (this->Origin + this->StoredDimensions() - Eigen::Vector3i::Ones()).cwiseQuotient(factors) - half.Origin +
     Eigen::Vector3i::Ones();
   // Back to HU, which Store takes: mean mu = muWater (1 + HU / 1000).
   std::vector<float> hounsfield(static_cast<size_t>(size.prod()));
@@ -218,8 +223,8 @@ AttenuationVolume AttenuationVolume::Halved() const
         for (int j = 0; j < size[1]; ++j)
           for (int i = 0; i < size[0]; ++i)
           {
-            const Eigen::Vector3i first = 2 * (half.Origin + Eigen::Vector3i(i, j, k));
-            const Eigen::Vector3i last = (first + Eigen::Vector3i::Ones()).cwiseMin(this->Dims - Eigen::Vector3i::Ones());
+            const Eigen::Vector3i first = factors.cwiseProduct(half.Origin + Eigen::Vector3i(i, j, k));
+            const Eigen::Vector3i last = (first + less).cwiseMin(this->Dims - Eigen::Vector3i::Ones());
             long sum = 0; // in steps of Quantum()
             int count = 0;
             for (int z = first[2]; z <= last[2]; ++z)

@@ -53,11 +53,12 @@ public:
   static constexpr double DefaultAirThreshold = -950.0;
 
   /**
-   * The same CT at half resolution: each voxel the mean mu of 2 x 2 x 2 (an odd last layer
-   * averages what it has). For coarse stages that render half-size images: a ray takes half the
-   * samples, and an eighth of the voxels stays in cache.
+   * The same CT at half resolution along the index axes whose `factors` are 2 (the others 1):
+   * each voxel the mean mu of the voxels it covers (an odd last layer averages what it has). For
+   * coarse stages that render half-size images: a ray takes half the samples, and an eighth of
+   * the voxels stays in cache (2 x 2 x 2). A CT of thick slices may halve its pixels only.
    */
-  AttenuationVolume Halved() const;
+  AttenuationVolume Halved(const Eigen::Vector3i& factors = Eigen::Vector3i::Constant(2)) const;
 
   /** The CT's grid: its voxel counts, and voxel index -> CT mm. */
   const Eigen::Vector3i& Dimensions() const { return this->Dims; }

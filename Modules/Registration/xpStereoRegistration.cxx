@@ -117,6 +117,19 @@ double RotationApart(const Pose& a, const Pose& b)
   return std::max({ std::abs(a.pitch - b.pitch), std::abs(a.roll - b.roll), std::abs(a.yaw - b.yaw) });
 }
 
+} // namespace
+
+Eigen::Vector3i HalvingFactors(const AttenuationVolume& volume, double maxHalvedVoxelMM)
+{
+  Eigen::Vector3i factors;
+  for (int a = 0; a < 3; ++a)
+    factors[a] = 2.0 * volume.IndexToCT().linear().col(a).norm() <= maxHalvedVoxelMM ? 2 : 1;
+  return factors;
+}
+
+namespace
+{
+
 bool Agree(const Pose& a, const Pose& b, const StereoRegistrationSettings& settings)
 {
   return TranslationApart(a, b) <= settings.maxSearchDisagreementMM &&
@@ -772,13 +785,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const double correlationMM = result.boneOnly ? settings.boneCorrelationHighPassMM : 0.0;
 
   // 1. Pre-alignment (5+1 DOF) with the user ROIs only. Half-size images are rendered from a
-  // half-resolution CT where its voxels stay fine enough: their pixels are twice as wide, and a
-  // ray takes half the samples.
+  // half-resolution CT along each axis whose voxels stay fine enough: their pixels are twice as
+  // wide, and a ray takes half the samples (a CT of thick slices halves its pixels only).
   Clock::time_point start = Clock::now();
   std::clock_t cpuStart = std::clock();
   progress.Begin("pre-alignment", 0.0, 0.1);
-  const bool halveCT = pyramid && 2.0 * volume.MaximumSpacing() <= settings.maxHalvedVoxelMM;
-  const AttenuationVolume halfVolume = halveCT ? volume.Halved() : AttenuationVolume();
+  const Eigen::Vector3i halving = HalvingFactors(volume, settings.maxHalvedVoxelMM);
+  const bool halveCT = pyramid && halving != Eigen::Vector3i::Ones();
+  const AttenuationVolume halfVolume = halveCT ? volume.Halved(halving) : AttenuationVolume();
   const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
   result.start = requested.initialPose;
   std::vector<RegistrationView> shadowed;

@@ -39,8 +39,9 @@ struct StereoRegistrationSettings
   /** Register the X-rays' ranks with the open field bright (RankedXRays in the .cxx): every
    *  later step sees the same image whatever the X-ray's bit depth and grey-level mapping. */
   bool rankedXRays = true;
-  /** The half-size stages render from a half-resolution CT only when its voxels stay within
-   *  this (mm); coarser voxels blur the bone edges the coarse search follows. */
+  /** The half-size stages render from a CT halved along each index axis whose halved spacing
+   *  stays within this (mm; HalvingFactors); coarser voxels blur the bone edges the coarse
+   *  search follows. */
   double maxHalvedVoxelMM = 2.5;
   /** A volume whose outer surface is bone (a bone cut out of a CT, zero around it) is matched
    *  only within its shadow, widened on the panel by the first margin (mm) for the search and
@@ -263,6 +264,10 @@ using RegistrationObserver = std::function<void(const RegistrationProgress&)>;
  * voxels beside air) above 300; a body's surface is skin, near 0 HU.
  */
 VTKXPREGISTRATION_EXPORT bool OuterSurfaceIsBone(const AttenuationVolume& volume);
+
+/** Per index axis of the CT, 2 where twice its spacing is at most `maxHalvedVoxelMM`, else 1:
+ *  the factors AttenuationVolume::Halved takes for the half-size stages. */
+VTKXPREGISTRATION_EXPORT Eigen::Vector3i HalvingFactors(const AttenuationVolume& volume, double maxHalvedVoxelMM);
 
 /**
  * Registers a CT to stereo X-rays. `views` carry the X-rays (any bit depth, row 0 first) and, in

@@ -358,6 +358,15 @@ TEST(AttenuationVolume, StoresTheBoxOfNonAirVoxelsAndKeepsTheCTGrid)
   EXPECT_NEAR(half.At(7, 2, 3), 2.0 * MuWater / 8.0, 1e-6);  // the bone voxel, one of eight
   EXPECT_NEAR(half.At(3, 3, 1), MuWater / 2.0, 1e-6);        // water in one of two slices
   EXPECT_EQ(half.At(9, 7, 5), 0.0f);
+  // Halved along x and y only (a CT of thick slices): 2 x 2 x 1 averaged, the slices kept.
+  const xp::AttenuationVolume pixelsOnly = volume.Halved(Eigen::Vector3i(2, 2, 1));
+  EXPECT_EQ(pixelsOnly.Dimensions(), Eigen::Vector3i(10, 8, 12));
+  EXPECT_TRUE((pixelsOnly.IndexToCT() * Eigen::Vector3d(1, 1, 1)).isApprox(indexToCT * Eigen::Vector3d(2.5, 2.5, 1.0)));
+  EXPECT_NEAR(pixelsOnly.At(7, 2, 7), 2.0 * MuWater / 4.0, 1e-6); // the bone voxel, one of four
+  EXPECT_NEAR(pixelsOnly.At(3, 3, 2), MuWater, 1e-6);              // inside the water slice
+  EXPECT_NEAR(pixelsOnly.At(2, 1, 2), MuWater / 4.0, 1e-6);        // its corner, one of four
+  EXPECT_EQ(pixelsOnly.At(3, 3, 3), 0.0f) << "the slice above the water stays air";
+  EXPECT_THROW(volume.Halved(Eigen::Vector3i(2, 3, 1)), xp::Error);
   // All air: one stored voxel, and every ray integrates to zero.
   std::vector<float> air(static_cast<size_t>(dims.prod()), -1000.0f);
   const xp::AttenuationVolume empty(air.data(), dims, indexToCT, MuWater);

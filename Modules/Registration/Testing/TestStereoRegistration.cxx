@@ -225,6 +225,24 @@ TEST(StereoSimilarity, RenderStrideForKeepsNodesWithinTheCTsVoxel)
   EXPECT_EQ(strideFor(thickColumns, 256, 192, Eigen::Vector3d::Zero()), "1x1");
 }
 
+TEST(StereoRegistration, HalvingFactorsHalveOnlyTheAxesThatStayFine)
+{
+  const std::vector<float> water(8 * 8 * 8, 0.0f);
+  const auto factorsFor = [&](const Eigen::Vector3d& spacing)
+  {
+    Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+    indexToCT.linear() = spacing.asDiagonal();
+    const xp::AttenuationVolume volume(water.data(), Eigen::Vector3i(8, 8, 8), indexToCT, xp::WaterAttenuationPerMM);
+    const Eigen::Vector3i f = xp::HalvingFactors(volume, 2.5);
+    return std::to_string(f[0]) + std::to_string(f[1]) + std::to_string(f[2]);
+  };
+  EXPECT_EQ(factorsFor(Eigen::Vector3d(1.0, 1.0, 1.0)), "222");
+  EXPECT_EQ(factorsFor(Eigen::Vector3d(1.25, 1.25, 1.25)), "222"); // 2.5 mm halved: at the limit
+  EXPECT_EQ(factorsFor(Eigen::Vector3d(1.5, 1.5, 1.5)), "111");
+  EXPECT_EQ(factorsFor(Eigen::Vector3d(0.9, 0.9, 3.0)), "221"); // thick slices keep their slices
+  EXPECT_EQ(factorsFor(Eigen::Vector3d(3.0, 0.9, 0.9)), "122");
+}
+
 TEST(StereoSimilarity, CTSpacingAlongADirectionIsTheVoxelsExtentAlongIt)
 {
   const std::vector<float> water(8 * 8 * 8, 0.0f);
