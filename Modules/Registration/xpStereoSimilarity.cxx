@@ -24,14 +24,14 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
   return std::max(3.0, sigmaMM / view.pixelSpacing[0]);
 }
 
-} // namespace
-
 /** The panel's pixel spacings shrunk by the magnification where the central ray passes the isocentre. */
 Eigen::Vector2d PixelSpacingsAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
 {
   const double toIsocenter = (view.source - roomIsocenter).dot(view.NormalTowardsSource());
   return view.pixelSpacing * toIsocenter / view.SourceToPanelDistance();
 }
+
+} // namespace
 
 double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
 {
