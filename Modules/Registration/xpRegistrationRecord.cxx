@@ -419,11 +419,19 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.drrCount = static_cast<long long>(f.Number("drr_count"));
   if (f.Has("render_strides")) // absent in records written before the strides
   {
-    const auto read = [&f](const std::string& at)
+    // A stride the registration could not have used (SetRenderStride takes 1 to 8) marks a damaged record.
+    const auto step = [&f](const std::string& at)
+    {
+      const double value = f.Number(at);
+      if (value != std::floor(value) || value < 1 || value > 8)
+        f.Fail(at, "must be a whole number from 1 to 8");
+      return static_cast<int>(value);
+    };
+    const auto read = [&f, &step](const std::string& at)
     {
       if (f.At(at).isNumeric()) // one number for both axes before the strides per axis
-        return RenderStride{ static_cast<int>(f.Number(at)), static_cast<int>(f.Number(at)) };
-      return RenderStride{ static_cast<int>(f.Number(at + ".columns")), static_cast<int>(f.Number(at + ".rows")) };
+        return RenderStride{ step(at), step(at) };
+      return RenderStride{ step(at + ".columns"), step(at + ".rows") };
     };
     r.searchRenderStride = read("render_strides.search");
     r.fineRenderStride = read("render_strides.fine");

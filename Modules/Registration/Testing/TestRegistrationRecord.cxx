@@ -153,6 +153,31 @@ TEST(RegistrationRecord, ReadsOneStrideForBothAxesFromEarlierRecords)
   EXPECT_EQ(read.fineRenderStride, (xp::RenderStride{ 2, 2 }));
 }
 
+TEST(RegistrationRecord, RefusesARenderStrideNoRegistrationUses)
+{
+  const std::string current = xp::RegistrationRecordJSON(FailedRecord());
+  for (const Json::Value& bad : { Json::Value(0), Json::Value(9), Json::Value(1.5), Json::Value(-2) })
+  {
+    Json::Value root;
+    std::istringstream(current) >> root;
+    root["render_strides"]["fine"]["rows"] = bad;
+    try
+    {
+      xp::ParseRegistrationRecord(Json::writeString(Json::StreamWriterBuilder(), root), "run/result.json");
+      ADD_FAILURE() << "a fine stride of " << bad.asDouble() << " rows was accepted";
+    }
+    catch (const xp::InputError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("render_strides.fine.rows"), std::string::npos) << e.what();
+    }
+  }
+  // The same for the single number of earlier records.
+  Json::Value root;
+  std::istringstream(current) >> root;
+  root["render_strides"]["search"] = 0;
+  EXPECT_THROW(xp::ParseRegistrationRecord(Json::writeString(Json::StreamWriterBuilder(), root), "old.json"), xp::InputError);
+}
+
 TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)
 {
   const std::string good = xp::RegistrationRecordJSON(FailedRecord());
