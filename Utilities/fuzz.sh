@@ -16,19 +16,20 @@ command -v clang++ >/dev/null || { echo "fuzz.sh: needs clang (apt-get install c
 
 build=build-fuzz
 CC=clang CXX=clang++ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DXPOSE_BUILD_FUZZERS=ON -DXPOSE_WRAP_PYTHON=OFF >/dev/null
-cmake --build "$build" --target xpose TestXPIO $(printf 'xpFuzz%s ' "${targets[@]}")
+cmake --build "$build" --target xpose TestXPFileFormats TestXPDICOM $(printf 'xpFuzz%s ' "${targets[@]}")
 
 # Seeds: what the IO tests write, and a small phantom CT, DRR and mask made by xpose.
 work="$build/fuzz"
 seeds="$work/seeds"
 rm -rf "$seeds" && mkdir -p "$seeds"/{DICOMSeries,DICOMXRay,PNG,TIFF,MetaImage,NIfTI,Geometry} "$work/made"
 export ASAN_OPTIONS=detect_leaks=0
-(cd "$build/Modules/IO/Testing" && ./../../../bin/TestXPIO --gtest_filter='VolumeIO.*:DICOMXRay.*:TIFF.*' >/dev/null)
-io="$build/Modules/IO/Testing"
-cp "$io/tmp-mha/ct.mha" "$seeds/MetaImage/"
-cp "$io/tmp-nifti/ct.nii.gz" "$seeds/NIfTI/" && gzip -dc "$io/tmp-nifti/ct.nii.gz" > "$seeds/NIfTI/ct.nii"
-cp "$io/tmp-dicom-dx/dx.dcm" "$io/tmp-dicom-cr/cr.dcm" "$seeds/DICOMXRay/"
-cp "$io"/tmp-tiff-xray/x16.tif "$io"/tmp-tiff-xray/x8.tif "$io"/tmp-tiff-volume/bone.tif "$seeds/TIFF/"
+(cd "$build/Modules/FileFormats/Testing" && ./../../../bin/TestXPFileFormats --gtest_filter='VolumeIO.*:TIFF.*' >/dev/null)
+(cd "$build/Modules/DICOM/Testing" && ./../../../bin/TestXPDICOM --gtest_filter='DICOMXRay.*' >/dev/null)
+files="$build/Modules/FileFormats/Testing" dicom="$build/Modules/DICOM/Testing"
+cp "$files/tmp-mha/ct.mha" "$seeds/MetaImage/"
+cp "$files/tmp-nifti/ct.nii.gz" "$seeds/NIfTI/" && gzip -dc "$files/tmp-nifti/ct.nii.gz" > "$seeds/NIfTI/ct.nii"
+cp "$dicom/tmp-dicom-dx/dx.dcm" "$dicom/tmp-dicom-cr/cr.dcm" "$seeds/DICOMXRay/"
+cp "$files"/tmp-tiff-xray/x16.tif "$files"/tmp-tiff-xray/x8.tif "$files"/tmp-tiff-volume/bone.tif "$seeds/TIFF/"
 made="$work/made"
 rm -rf "$made" && mkdir -p "$made"
 "$build/bin/xpose" phantom --out "$made/ct" --spacing 8 >/dev/null

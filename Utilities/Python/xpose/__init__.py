@@ -11,7 +11,7 @@ import vtkmodules.vtkCommonCore  # noqa: F401
 import vtkmodules.vtkCommonDataModel  # noqa: F401
 import vtkmodules.vtkCommonExecutionModel  # noqa: F401
 
-from .vtkXPIO import vtkXPDICOMCTReader  # noqa: F401
+from .vtkXPDICOM import vtkXPDICOMCTReader  # noqa: F401
 from .vtkXPDRR import vtkXPDRRFilter  # noqa: F401
 from .vtkXPMasking import vtkXPEntropyMaskFilter  # noqa: F401
 from .vtkXPMetrics import vtkXPMutualInformationMetric  # noqa: F401

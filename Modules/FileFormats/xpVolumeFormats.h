@@ -1,6 +1,6 @@
 /**
  * @file xpVolumeFormats.h
- * @brief xpose's own MetaImage and NIfTI-1 readers (module-private).
+ * @brief xpose's own MetaImage and NIfTI-1 readers, and the checked volume header they share.
  *
  * VTK's readers ignore their decoders' errors: a file cut short or a header whose sizes exceed
  * the data gave a volume padded with zeros, which registered as `ok`. These readers check every
@@ -9,7 +9,8 @@
 #ifndef xpVolumeFormats_h
 #define xpVolumeFormats_h
 
-#include "xpVolumeIO.h"
+#include "vtkXPFileFormatsModule.h"
+#include "xpCTVolume.h"
 
 #include <Eigen/Core>
 
@@ -35,7 +36,7 @@ enum class VoxelType
 };
 
 /** A volume's header, as read from a file, before its voxels are. */
-struct VolumeHeader
+struct VTKXPFILEFORMATS_EXPORT VolumeHeader
 {
   std::array<int64_t, 3> dimensions{ 0, 0, 0 };
   Eigen::Vector3d spacing = Eigen::Vector3d::Ones();
@@ -50,10 +51,10 @@ struct VolumeHeader
   uint64_t DataBytes() const;
 };
 
-size_t VoxelBytes(VoxelType type);
+VTKXPFILEFORMATS_EXPORT size_t VoxelBytes(VoxelType type);
 
 /** Bytes in the file at `path` (0 when it cannot be read). */
-uint64_t FileSize(const std::string& path);
+VTKXPFILEFORMATS_EXPORT uint64_t FileSize(const std::string& path);
 
 /**
  * Checks what a header declares: at least 1 x 1 x 2 voxels and no more than the voxel limit,
@@ -61,7 +62,7 @@ uint64_t FileSize(const std::string& path);
  * slope and intercept. Throws xp::InputError naming `path` and the field (`fields` maps the
  * checks to the format's own field names: dimensions, spacing, origin, direction).
  */
-void CheckVolumeHeader(const VolumeHeader& header, const std::string& path, const std::array<std::string, 4>& fields);
+VTKXPFILEFORMATS_EXPORT void CheckVolumeHeader(const VolumeHeader& header, const std::string& path, const std::array<std::string, 4>& fields);
 
 /**
  * Whether a volume's HU are kept as 16-bit integers (vtkShortArray) rather than floats: stored
@@ -70,7 +71,7 @@ void CheckVolumeHeader(const VolumeHeader& header, const std::string& path, cons
  * any metal) are clamped to it. Half the memory of floats, and a CT is read and prepared for
  * ray casting in half the time.
  */
-bool KeepsWholeHU16(const VolumeHeader& header);
+VTKXPFILEFORMATS_EXPORT bool KeepsWholeHU16(const VolumeHeader& header);
 
 /**
  * Makes the HU image of a volume whose voxel bytes, as stored in the file, `readVoxels`
@@ -80,11 +81,11 @@ bool KeepsWholeHU16(const VolumeHeader& header);
  * file is held. 16-bit HU when KeepsWholeHU16, float otherwise; float voxels that are not
  * finite or beyond +-1e6 HU are refused, naming `path`.
  */
-CTVolume MakeCTVolume(
+VTKXPFILEFORMATS_EXPORT CTVolume MakeCTVolume(
   const VolumeHeader& header, const std::string& path, const std::function<void(char*, uint64_t)>& readVoxels);
 
-CTVolume ReadMetaImage(const std::string& path);
-CTVolume ReadNIfTI(const std::string& path);
+VTKXPFILEFORMATS_EXPORT CTVolume ReadMetaImage(const std::string& path);
+VTKXPFILEFORMATS_EXPORT CTVolume ReadNIfTI(const std::string& path);
 
 } // namespace xp
 

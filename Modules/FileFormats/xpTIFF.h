@@ -1,6 +1,6 @@
 /**
  * @file xpTIFF.h
- * @brief TIFF decoding with libtiff under xpose's own error handling (module-private).
+ * @brief TIFF decoding with libtiff under xpose's own error handling.
  *
  * X-rays from research systems (biplane videoradiography, image intensifiers) and bone volumes
  * cut from a CT come as TIFF: one grey page, or a stack of pages. Every libtiff error, a cut
@@ -10,6 +10,8 @@
 #ifndef xpTIFF_h
 #define xpTIFF_h
 
+#include "vtkXPFileFormatsModule.h"
+
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -17,7 +19,7 @@
 namespace xp
 {
 
-struct DecodedTIFF
+struct VTKXPFILEFORMATS_EXPORT DecodedTIFF
 {
   int columns = 0, rows = 0;
   int bitsPerSample = 0; ///< 8 or 16
@@ -27,13 +29,13 @@ struct DecodedTIFF
 };
 
 /** True when the file starts as a TIFF does (II*\0 or MM\0*). */
-bool IsTIFF(const std::string& path);
+VTKXPFILEFORMATS_EXPORT bool IsTIFF(const std::string& path);
 
 /**
  * Decodes every page of a grey (one sample per pixel), 8- or 16-bit unsigned TIFF; images larger
  * than 16384 pixels a side, or more than 4096 pages, are refused.
  */
-DecodedTIFF DecodeTIFF(const std::string& path);
+VTKXPFILEFORMATS_EXPORT DecodedTIFF DecodeTIFF(const std::string& path);
 
 } // namespace xp
 

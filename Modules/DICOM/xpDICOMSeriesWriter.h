@@ -7,7 +7,7 @@
 #ifndef xpDICOMSeriesWriter_h
 #define xpDICOMSeriesWriter_h
 
-#include "vtkXPIOModule.h"
+#include "vtkXPDICOMModule.h"
 
 #include <Eigen/Core>
 #include <string>
@@ -40,7 +40,7 @@ struct CTSeriesWriteOptions
 };
 
 /** Writes `volume` into `directory` (which must exist); returns the file names in slice order. */
-VTKXPIO_EXPORT std::vector<std::string> WriteCTSeries(
+VTKXPDICOM_EXPORT std::vector<std::string> WriteCTSeries(
   const CTVolumeData& volume, const std::string& directory, const CTSeriesWriteOptions& options = {});
 
 } // namespace xp

@@ -6,7 +6,7 @@
 #ifndef xpSpatialRegistration_h
 #define xpSpatialRegistration_h
 
-#include "vtkXPIOModule.h"
+#include "vtkXPDICOMModule.h"
 #include "xpDICOMSeries.h"
 
 #include <Eigen/Geometry>
@@ -51,7 +51,7 @@ struct SpatialRegistration
  * SOP Instance UID. Throws xp::InputError naming the CT file when it has no Study Instance or
  * Frame of Reference UID, xp::Error naming `path` when it cannot be written.
  */
-VTKXPIO_EXPORT std::string WriteSpatialRegistration(
+VTKXPDICOM_EXPORT std::string WriteSpatialRegistration(
   const CTSeriesInfo& ct, const SpatialRegistration& registration, const std::string& path);
 
 /**
@@ -59,14 +59,14 @@ VTKXPIO_EXPORT std::string WriteSpatialRegistration(
  * Reference). Throws xp::InputError naming `path` and the attribute when the file is not a REG
  * or holds no such matrix.
  */
-VTKXPIO_EXPORT Eigen::Isometry3d ReadSpatialRegistrationMatrix(const std::string& path, const std::string& frameOfReferenceUID);
+VTKXPDICOM_EXPORT Eigen::Isometry3d ReadSpatialRegistrationMatrix(const std::string& path, const std::string& frameOfReferenceUID);
 
 /** The identity of the DICOM image at `path`; none when the file is not DICOM or lacks one of
  *  the four UIDs. */
-VTKXPIO_EXPORT std::optional<InstanceReference> ReadInstanceReference(const std::string& path);
+VTKXPDICOM_EXPORT std::optional<InstanceReference> ReadInstanceReference(const std::string& path);
 
 /** A new DICOM UID under the root 2.25 (a random UUID as a decimal number, PS3.5 B.2). */
-VTKXPIO_EXPORT std::string NewDICOMUID();
+VTKXPDICOM_EXPORT std::string NewDICOMUID();
 
 } // namespace xp
 

@@ -15,7 +15,7 @@
 #define vtkXPDICOMCTReader_h
 
 #include "vtkImageAlgorithm.h"
-#include "vtkXPIOModule.h"
+#include "vtkXPDICOMModule.h"
 
 #include <memory>
 #include <string>
@@ -25,7 +25,7 @@ namespace xp
 struct CTSeriesInfo;
 }
 
-class VTKXPIO_EXPORT vtkXPDICOMCTReader : public vtkImageAlgorithm
+class VTKXPDICOM_EXPORT vtkXPDICOMCTReader : public vtkImageAlgorithm
 {
 public:
   static vtkXPDICOMCTReader* New();

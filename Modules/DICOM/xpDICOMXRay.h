@@ -9,7 +9,7 @@
 #ifndef xpDICOMXRay_h
 #define xpDICOMXRay_h
 
-#include "vtkXPIOModule.h"
+#include "vtkXPDICOMModule.h"
 
 #include <vtkSmartPointer.h>
 
@@ -22,11 +22,11 @@ namespace xp
 
 /** The X-ray as unsigned short, its stored values (up to 16 bits), in VTK row order; throws
  *  xp::InputError naming the file. */
-VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayDICOM(const std::string& path);
+VTKXPDICOM_EXPORT vtkSmartPointer<vtkImageData> ReadXRayDICOM(const std::string& path);
 
 /** An X-ray from a grey PNG, a grey one-page TIFF (8 or 16 bits; xpImageIO.h) or a DICOM
  *  DX/CR/RT Image file, chosen by content, values as stored. */
-VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayImage(const std::string& path);
+VTKXPDICOM_EXPORT vtkSmartPointer<vtkImageData> ReadXRayImage(const std::string& path);
 
 } // namespace xp
 

@@ -1,6 +1,6 @@
 /**
  * @file xpPNG.h
- * @brief PNG decoding and encoding with libpng under xpose's own error handling (module-private).
+ * @brief PNG decoding and encoding with libpng under xpose's own error handling.
  *
  * VTK's PNG reader crashed (SIGSEGV in png_destroy_read_struct) on a cut or damaged file, so
  * PNGs are decoded here with libpng directly: every libpng error, a short file, a damaged
@@ -11,6 +11,8 @@
 #ifndef xpPNG_h
 #define xpPNG_h
 
+#include "vtkXPFileFormatsModule.h"
+
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -19,7 +21,7 @@
 namespace xp
 {
 
-struct DecodedPNG
+struct VTKXPFILEFORMATS_EXPORT DecodedPNG
 {
   int columns = 0, rows = 0;
   int bitDepth = 0;  ///< as stored (1, 2, 4, 8 or 16)
@@ -32,15 +34,15 @@ struct DecodedPNG
 };
 
 /** Decodes the whole file; images larger than 16384 pixels a side are refused. */
-DecodedPNG DecodePNG(const std::string& path);
+VTKXPFILEFORMATS_EXPORT DecodedPNG DecodePNG(const std::string& path);
 
 /**
  * Writes `rows` rows of `columns` pixels of `channels` (1 grey ... 4 RGBA) samples of
  * `bitDepth` 8 or 16 (native byte order), top row first, one row every `rowStride` bytes.
  * Thread-safe for distinct files. Throws xp::Error naming the file.
  */
-void EncodePNG(const std::string& path, const void* topRow, std::ptrdiff_t rowStride, int columns, int rows, int channels,
-  int bitDepth);
+VTKXPFILEFORMATS_EXPORT void EncodePNG(const std::string& path, const void* topRow, std::ptrdiff_t rowStride, int columns,
+  int rows, int channels, int bitDepth);
 
 } // namespace xp
 

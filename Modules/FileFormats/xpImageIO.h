@@ -9,7 +9,7 @@
 #ifndef xpImageIO_h
 #define xpImageIO_h
 
-#include "vtkXPIOModule.h"
+#include "vtkXPFileFormatsModule.h"
 
 #include <vtkSmartPointer.h>
 
@@ -23,43 +23,43 @@ namespace xp
 struct XRayView;
 
 /** Writes an unsigned char or unsigned short 2D image as PNG (top row = detector row 0). */
-VTKXPIO_EXPORT void WritePNG(vtkImageData* image, const std::string& path);
+VTKXPFILEFORMATS_EXPORT void WritePNG(vtkImageData* image, const std::string& path);
 
 /**
  * Writes a float 2D detector image as MetaImage: pixel (i, j) = detector column i, row j, placed
  * in Room coordinates by Offset/TransformMatrix of `view` (a 3D image one pixel deep).
  */
-VTKXPIO_EXPORT void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path);
+VTKXPFILEFORMATS_EXPORT void WriteDetectorMetaImage(vtkImageData* image, const XRayView& view, const std::string& path);
 
 /**
  * Reads a validity mask (PNG, non-zero = valid) for a detector of columns x rows, returned in
  * VTK row order as unsigned char 0/1. Throws xp::InputError naming the file when it cannot be
  * read, its size differs, or no pixel is valid.
  */
-VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows);
+VTKXPFILEFORMATS_EXPORT vtkSmartPointer<vtkImageData> ReadMaskPNG(const std::string& path, int columns, int rows);
 
 /**
  * Reads an X-ray stored as a grey PNG of any bit depth (8-bit processed, 12-bit in 16, a panel's
  * raw 16), values as stored, in VTK row order. Throws xp::InputError naming the file when it is
  * unreadable or not grey with one channel.
  */
-VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path);
+VTKXPFILEFORMATS_EXPORT vtkSmartPointer<vtkImageData> ReadXRayPNG(const std::string& path);
 
 /**
  * Reads an X-ray stored as a grey one-page TIFF, 8 or 16 bits (white-is-zero turned round),
  * values as stored, in VTK row order. Throws xp::InputError naming the file when it is
  * unreadable, not grey, tiled, or holds more than one page.
  */
-VTKXPIO_EXPORT vtkSmartPointer<vtkImageData> ReadXRayTIFF(const std::string& path);
+VTKXPFILEFORMATS_EXPORT vtkSmartPointer<vtkImageData> ReadXRayTIFF(const std::string& path);
 
 /** The MD5 of a file's bytes as 32 hex digits: identifies an input file in a result record. */
-VTKXPIO_EXPORT std::string FileMD5(const std::string& path);
+VTKXPFILEFORMATS_EXPORT std::string FileMD5(const std::string& path);
 
 /**
  * Collects output files in a hidden staging folder inside `directory` and moves them into place
  * only on Commit(): a command that fails half-way leaves nothing half-written behind.
  */
-class VTKXPIO_EXPORT StagedOutputDirectory
+class VTKXPFILEFORMATS_EXPORT StagedOutputDirectory
 {
 public:
   /** Creates `directory` if needed and a staging folder in it; throws xp::InputError if it cannot. */

@@ -7,7 +7,7 @@
 #ifndef xpXRayGeometryTags_h
 #define xpXRayGeometryTags_h
 
-#include "vtkXPIOModule.h"
+#include "vtkXPDICOMModule.h"
 #include "xpXRayView.h"
 
 #include <Eigen/Core>
@@ -27,12 +27,12 @@ namespace xp
  * Type (0018,1508) other than CARM is refused: its angles mean something else. Throws
  * xp::InputError naming the file and the tag when one is missing, malformed or contradicts another.
  */
-VTKXPIO_EXPORT XRayView ReadProjectionXRayView(
+VTKXPDICOM_EXPORT XRayView ReadProjectionXRayView(
   const std::string& path, const Eigen::Vector3d& roomIsocenter, const std::string& patientPosition = "");
 
 /** ReadRTImageView or ReadProjectionXRayView, as the file's SOP Class UID says; other classes
  *  are refused, naming the file and the class. */
-VTKXPIO_EXPORT XRayView ReadXRayViewFromTags(
+VTKXPDICOM_EXPORT XRayView ReadXRayViewFromTags(
   const std::string& path, const Eigen::Vector3d& roomIsocenter, const std::string& patientPosition = "");
 
 /**
@@ -41,7 +41,7 @@ VTKXPIO_EXPORT XRayView ReadXRayViewFromTags(
  * it and both values. Files of other kinds (PNG, other classes) and absent tags give nothing to
  * compare; an imager the file's kind cannot describe gives one line that says so.
  */
-VTKXPIO_EXPORT std::vector<std::string> XRayTagDisagreements(const std::string& path, const XRayView& view,
+VTKXPDICOM_EXPORT std::vector<std::string> XRayTagDisagreements(const std::string& path, const XRayView& view,
   const Eigen::Vector3d& roomIsocenter, const std::string& patientPosition = "");
 
 } // namespace xp

@@ -10,7 +10,7 @@
 #ifndef xpDICOMSeries_h
 #define xpDICOMSeries_h
 
-#include "vtkXPIOModule.h"
+#include "vtkXPDICOMModule.h"
 
 #include <Eigen/Core>
 #include <cstdint>
@@ -20,7 +20,7 @@
 namespace xp
 {
 
-struct VTKXPIO_EXPORT CTSeriesInfo
+struct VTKXPDICOM_EXPORT CTSeriesInfo
 {
   std::string directory;
   std::string seriesInstanceUID;
@@ -45,16 +45,16 @@ struct VTKXPIO_EXPORT CTSeriesInfo
  * Scans `directory` (not recursively) and returns the CT series there. With several series
  * present, `seriesUID` selects one; empty and ambiguous throws xp::InputError listing them.
  */
-VTKXPIO_EXPORT CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& seriesUID = "");
+VTKXPDICOM_EXPORT CTSeriesInfo ScanCTSeries(const std::string& directory, const std::string& seriesUID = "");
 
 /**
  * Reads the pixels of a scanned series in Hounsfield units (rescale slope/intercept applied),
  * x fastest, slice by slice in sorted order, into `hounsfield`, which has room for
  * columns x rows x slices values. Throws xp::InputError naming the file that fails.
  */
-VTKXPIO_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, float* hounsfield);
+VTKXPDICOM_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, float* hounsfield);
 /** The same as 16-bit HU, for a series whose info.wholeHU16 is set. */
-VTKXPIO_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, int16_t* hounsfield);
+VTKXPDICOM_EXPORT void ReadCTSeriesVoxels(const CTSeriesInfo& info, int16_t* hounsfield);
 
 } // namespace xp
 

@@ -1,31 +1,19 @@
 /**
  * @file xpVolumeIO.h
- * @brief Loads a planning CT from a DICOM folder, a MetaImage (.mha/.mhd) or NIfTI (.nii/.nii.gz).
+ * @brief Loads a planning CT from whatever a user names: a DICOM folder, a MetaImage (.mha/.mhd),
+ *        NIfTI (.nii/.nii.gz) or a TIFF stack (the file formats are read by Modules/FileFormats).
  */
 #ifndef xpVolumeIO_h
 #define xpVolumeIO_h
 
-#include "vtkXPIOModule.h"
-
-#include <vtkSmartPointer.h>
+#include "vtkXPDICOMModule.h"
+#include "xpCTVolume.h"
 
 #include <array>
 #include <string>
 
-class vtkImageData;
-
 namespace xp
 {
-
-struct VTKXPIO_EXPORT CTVolume
-{
-  /** HU: 16-bit integers (VTK_SHORT) where the file stores integers of at most 16 bits with
-   *  rescale slope 1 and a whole intercept (values beyond the 16-bit range clamped), float
-   *  otherwise; index-to-physical (origin, spacing, DirectionMatrix) gives LPS mm. */
-  vtkSmartPointer<vtkImageData> image;
-  /** DICOM Patient Position; "HFS" for formats that do not carry one. */
-  std::string patientPosition = "HFS";
-};
 
 /**
  * Reads a CT. A folder is read as DICOM (`seriesUID` selects among several series); a file by
@@ -41,15 +29,15 @@ struct VTKXPIO_EXPORT CTVolume
  *
  * Throws xp::InputError naming the path, or --voxel-size.
  */
-VTKXPIO_EXPORT CTVolume ReadCTVolume(
+VTKXPDICOM_EXPORT CTVolume ReadCTVolume(
   const std::string& path, const std::string& seriesUID = "", const std::array<double, 3>& voxelSizeMM = { 0, 0, 0 });
 
 /** Whether ReadCTVolume reads `path` as a TIFF stack (.tif or .tiff, any case). */
-VTKXPIO_EXPORT bool IsTIFFVolumePath(const std::string& path);
+VTKXPDICOM_EXPORT bool IsTIFFVolumePath(const std::string& path);
 
 /** "0.4,0.4,0.625" -> three positive sizes (mm); "" -> zeros (none given). Throws xp::InputError
  *  naming `option`. */
-VTKXPIO_EXPORT std::array<double, 3> ParseVoxelSize(const std::string& text, const std::string& option);
+VTKXPDICOM_EXPORT std::array<double, 3> ParseVoxelSize(const std::string& text, const std::string& option);
 
 } // namespace xp
 

@@ -7,7 +7,7 @@
 #ifndef xpRTImage_h
 #define xpRTImage_h
 
-#include "vtkXPIOModule.h"
+#include "vtkXPDICOMModule.h"
 #include "xpDICOMSeries.h"
 #include "xpXRayView.h"
 
@@ -38,7 +38,7 @@ struct RTImageDRR
  * Views of one run share `seriesUID`. Returns the SOP Instance UID. Throws xp::InputError when
  * the imager's panel is not normal to its beam axis, xp::Error when the file cannot be written.
  */
-VTKXPIO_EXPORT std::string WriteRTImageDRR(
+VTKXPDICOM_EXPORT std::string WriteRTImageDRR(
   const CTSeriesInfo& ct, const RTImageDRR& drr, const std::string& seriesUID, int instanceNumber, const std::string& path);
 
 /**
@@ -48,14 +48,14 @@ VTKXPIO_EXPORT std::string WriteRTImageDRR(
  * Image Position default to an untilted, centred panel. Throws xp::InputError naming the file
  * and the tag when one is missing, malformed or contradicts another.
  */
-VTKXPIO_EXPORT XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIsocenter);
+VTKXPDICOM_EXPORT XRayView ReadRTImageView(const std::string& path, const Eigen::Vector3d& roomIsocenter);
 
 /**
  * Writes the picture in the PNG file `png` (the report's summary, 8-bit grey or colour) as a
  * Secondary Capture image in the CT's study, into `path`. Returns the SOP Instance UID. Throws
  * xp::InputError naming the PNG when it cannot be decoded, xp::Error when `path` cannot be written.
  */
-VTKXPIO_EXPORT std::string WriteSecondaryCapture(
+VTKXPDICOM_EXPORT std::string WriteSecondaryCapture(
   const CTSeriesInfo& ct, const std::string& png, const std::string& description, const std::string& path);
 
 /**
@@ -63,7 +63,7 @@ VTKXPIO_EXPORT std::string WriteSecondaryCapture(
  * imager) beyond 0.5 mm or 0.1 degree: one line per tag, naming it and both values. A file that
  * is not an RT Image, and tags that are absent, give nothing to compare.
  */
-VTKXPIO_EXPORT std::vector<std::string> RTImageDisagreements(
+VTKXPDICOM_EXPORT std::vector<std::string> RTImageDisagreements(
   const std::string& path, const XRayView& view, const Eigen::Vector3d& roomIsocenter);
 
 } // namespace xp
