@@ -1,5 +1,5 @@
 #include "xpCommands.h"
-#include "xpDRRSetup.h"
+#include "xpRegistrationWriters.h"
 
 #include "xpAttenuationVolume.h"
 #include "xpError.h"

@@ -1,7 +1,7 @@
 // `xpose bench register`: where a registration's time goes, stage by stage, and what each
 // optimiser of the 6-DOF stages costs and gives on the same simulated trials.
 #include "xpCommands.h"
-#include "xpRegistrationInputs.h"
+#include "xpRegistrationSources.h"
 
 #include "xpAccuracyEvaluation.h"
 #include "xpError.h"

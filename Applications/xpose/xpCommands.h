@@ -10,6 +10,8 @@
 #define xpCommands_h
 
 #include "xpAttenuationVolume.h" // WaterAttenuationPerMM
+#include "xpRegistrationSources.h"  // RegistrationSources
+#include "xpSessionOptions.h"       // the option checks the session shares
 #include "xpStereoRegistration.h"   // StereoRegistrationSettings
 
 #include <Eigen/Core>
@@ -121,21 +123,13 @@ struct SimulateOptions
   std::string outputDirectory;
 };
 
-struct RegisterOptions
+/** `xpose register`: the session's sources (--ct, --geometry, --xray, ...), then the options of the
+ *  method, the gate and the outputs. */
+struct RegisterOptions : RegistrationSources
 {
-  std::string ct;
-  std::string series;
-  std::string voxelSize;            ///< "x,y,z" mm, for a TIFF stack
-  std::string geometry;
-  std::vector<std::string> xrays;   ///< one per imager, in the geometry's order
-  std::vector<std::string> rois;    ///< optional, one per X-ray
-  std::string size;                 ///< registration resolution COLSxROWS, dividing the panel
-  std::string isocenterInCT;
   std::string initialPose;          ///< "tx,ty,tz,pitch,roll,yaw"; empty = the planned set-up
   std::string optimizer = "nelder-mead"; ///< of the 6-DOF stages: one name, or SEARCH/REFINEMENT
   bool globalSearch = false;        ///< find the start (xpGlobalSearch.h); always for a TIFF volume without initialPose
-  double muWater = WaterAttenuationPerMM;
-  bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
   StereoRegistrationSettings settings; ///< the method and its quality gate, as the options set them
   int threads = 0;
   std::string outputDirectory;
@@ -266,24 +260,8 @@ int RunTrack(const TrackOptions& options);
  *  (assigned by their geometry tags) is registered when it goes quiet, again for each new pair. */
 int RunListen(const ListenOptions& options);
 
-/** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
-std::pair<int, int> ParseSize(const std::string& text, const std::string& field);
-
 /** {"translation_mm": [...], "rotation_deg": {"pitch": .., "roll": .., "yaw": ..}} */
 std::string JsonPose(const Pose& pose);
-
-/** "x,y,z" -> a point in mm; throws xp::InputError naming `field`. */
-Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field);
-
-/** Throws xp::InputError naming `option` unless low <= value <= high (NaN fails). */
-void CheckLimit(double value, double low, double high, const std::string& option);
-
-/** Checks the registration settings the options set, naming the option of a value out of range. */
-void CheckRegistrationSettings(const StereoRegistrationSettings& settings);
-
-/** "SEARCH/REFINEMENT" or one optimiser for both (xpPoseOptimizer.h) into `settings`; an unknown
- *  name is an InputError naming `option`. */
-void SetOptimizers(const std::string& text, StereoRegistrationSettings& settings, const std::string& option);
 
 /** Routes VTK's warnings and errors to stderr as single plain lines (no colour, no pipeline
  *  dump); the "returned failure" messages that follow an error xpose reports itself are dropped. */

@@ -1,5 +1,5 @@
 #include "xpCommands.h"
-#include "xpDRRSetup.h"
+#include "xpRegistrationWriters.h"
 
 #include "xpError.h"
 #include "xpImageIO.h"
@@ -180,87 +180,6 @@ void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
 }
 
 } // namespace
-
-DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& voxelSize,
-  const std::string& geometryPath,
-  const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize)
-{
-  if (method != "trilinear" && method != "siddon")
-  {
-    throw InputError("--method", "expected trilinear or siddon, got '" + method + "'");
-  }
-  if (!(muWater > 0.0 && muWater < 1.0))
-  {
-    throw InputError("--mu-water", "must be between 0 and 1 per mm");
-  }
-  if (stepSize != 0.0)
-  {
-    CheckLimit(stepSize, 0.01, 100.0, "--step");
-  }
-  DRRSetup setup;
-  setup.geometry = ReadStereoGeometry(geometryPath); // geometry first: cheap to check
-  setup.ct = ReadCTVolume(ctPath, series, ParseVoxelSize(voxelSize, "--voxel-size"));
-  // Steps far below a voxel add nothing but time (1e-9 mm ran without end): bound the work.
-  double spacing[3];
-  setup.ct.image->GetSpacing(spacing);
-  const double voxel = std::min({ spacing[0], spacing[1], spacing[2] });
-  if (stepSize != 0.0 && stepSize < voxel / 16.0)
-  {
-    throw InputError("--step", std::to_string(stepSize) + " mm is finer than 1/16 of the smallest voxel (" +
-        std::to_string(voxel) + " mm): it would multiply the time and change nothing");
-  }
-  setup.filter = vtkSmartPointer<vtkXPDRRFilter>::New();
-  setup.filter->SetInputData(setup.ct.image);
-  setup.patient.position = ParsePatientPosition(setup.ct.patientPosition, ctPath);
-  setup.patient.roomIsocenter = setup.geometry.isocenter;
-  if (!isocenterInCT.empty())
-    setup.patient.isocenterInCT = ParsePoint(isocenterInCT, "--iso-ct");
-  setup.filter->SetPatientSetup(setup.patient);
-  setup.filter->SetMuWater(muWater);
-  setup.filter->SetMethod(method == "siddon" ? 1 : 0);
-  setup.filter->SetStepSize(stepSize);
-  return setup;
-}
-
-CTSeriesInfo DICOMSeriesForOutput(const std::string& ct, const std::string& series, const std::string& option)
-{
-  struct stat status;
-  if (stat(ct.c_str(), &status) != 0 || !S_ISDIR(status.st_mode))
-    throw InputError(option, "needs the CT as a DICOM series (a folder): DICOM output refers to its study and Frame of Reference");
-  CTSeriesInfo info = ScanCTSeries(ct, series);
-  if (info.studyInstanceUID.empty())
-    throw InputError(info.files.front(), "Study Instance UID (0020,000D) missing: " + option + " cannot join the CT's study");
-  if (info.frameOfReferenceUID.empty())
-    throw InputError(info.files.front(), "Frame of Reference UID (0020,0052) missing: " + option + " cannot refer to it");
-  return info;
-}
-
-void CheckRTImageViews(const StereoGeometry& geometry, const std::string& option)
-{
-  for (const XRayView& view : geometry.views)
-  {
-    try
-    {
-      RTImageGeometryOf(view, geometry.isocenter);
-    }
-    catch (const InputError& e)
-    {
-      throw InputError(option, std::string(e.what()) + ": its DRR cannot be written as an RT Image");
-    }
-  }
-}
-
-RTImageDRR RTImageOfLastDRR(const DRRSetup& setup, const std::string& description)
-{
-  RTImageDRR image;
-  image.view = setup.filter->GetOutputView();
-  image.roomIsocenter = setup.geometry.isocenter;
-  image.isocenterInCT = setup.patient.IsocenterInCT(ImageCenter(setup.ct.image));
-  image.patientPosition = setup.ct.patientPosition;
-  image.pixels = RowsTopFirst<uint16_t>(setup.filter->GetOutput(0));
-  image.description = description;
-  return image;
-}
 
 int RunDRR(const DRROptions& options)
 {

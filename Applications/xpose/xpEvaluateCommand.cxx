@@ -1,5 +1,5 @@
 #include "xpCommands.h"
-#include "xpRegistrationInputs.h"
+#include "xpRegistrationSources.h"
 
 #include "xpAccuracyEvaluation.h"
 #include "xpError.h"

@@ -1,5 +1,5 @@
 #include "xpCommands.h"
-#include "xpRegistrationInputs.h"
+#include "xpRegistrationSources.h"
 
 #include "xpError.h"
 #include "xpImageIO.h"
@@ -24,10 +24,10 @@ namespace xp
 namespace
 {
 
-/** The recorded inputs as `register` options, each X-ray checked to be the one registered. */
-RegisterOptions RecordedOptions(const RegistrationRecordInputs& recorded, const std::string& recordPath)
+/** The recorded inputs as the session's sources, each X-ray checked to be the one registered. */
+RegistrationSources RecordedSources(const RegistrationRecordInputs& recorded, const std::string& recordPath)
 {
-  RegisterOptions inputsOf;
+  RegistrationSources inputsOf;
   inputsOf.ct = recorded.ct;
   inputsOf.series = recorded.series;
   inputsOf.voxelSize = recorded.voxelSize;
@@ -78,8 +78,8 @@ int RunReport(const ReportOptions& options)
   const std::string resultFolder = std::filesystem::path(options.result).parent_path().string();
   const std::string directory =
     options.outputDirectory.empty() ? (resultFolder.empty() ? std::string("report") : resultFolder + "/report") : options.outputDirectory;
-  const RegisterOptions inputsOf = RecordedOptions(recorded, options.result);
-  const RegistrationInputs inputs = LoadRegistrationInputs(inputsOf);
+  const RegistrationSources inputsOf = RecordedSources(recorded, options.result);
+  const RegistrationInputs inputs = ReadRegistrationInputs(inputsOf);
 
   std::string title = "CT " + inputsOf.ct + "; X-rays";
   for (const std::string& xray : inputsOf.xrays)

@@ -1,6 +1,6 @@
 #include "xpAccuracyEvaluation.h"
 
-#include "vtkXPStereoRegistrationFilter.h"
+#include "xpRegistrationSession.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
 #include "xpImageIO.h"
@@ -101,19 +101,16 @@ AccuracyEvaluation::AccuracyEvaluation(const EvaluationScenario& scenario, vtkIm
   , Settings(settings)
   , RoomIsocenter(patient.roomIsocenter)
   , XRays(scenario, xrayCT ? xrayCT : ct, patient, geometry.views, settings.shrinkFactor)
-  , Registration(vtkSmartPointer<vtkXPStereoRegistrationFilter>::New())
 {
   const Eigen::Vector3d isoInCT = patient.IsocenterInCT(ImageCenter(ct));
   this->Targets = TargetPoints(ct, isoInCT, patient.PlannedCTToRoom(ImageCenter(ct)));
-  // The filter keeps the CT's attenuation between trials; the X-rays reach it at the
-  // registration size.
-  this->Registration->SetCTData(scenario.RegistrationCT(ct));
+  // The X-rays reach the session at the registration size.
   StereoGeometry registrationGeometry = geometry;
   for (XRayView& panel : registrationGeometry.views)
     panel = panel.Resampled(panel.Columns() / settings.shrinkFactor, panel.Rows() / settings.shrinkFactor);
-  this->Registration->SetGeometry(registrationGeometry);
   // The isocentre stays where the whole CT puts it: a cut CT's centre is elsewhere.
-  this->Registration->SetPatientSetup({ patient.position, isoInCT, patient.roomIsocenter });
+  this->Session = std::make_unique<RegistrationSession>(scenario.RegistrationCT(ct),
+    PatientSetup{ patient.position, isoInCT, patient.roomIsocenter }, registrationGeometry);
 }
 
 AccuracyEvaluation::~AccuracyEvaluation() = default;
@@ -151,7 +148,7 @@ void AccuracyEvaluation::Run(
 
 const StereoRegistrationResult& AccuracyEvaluation::LastResult() const
 {
-  return this->Registration->GetResult();
+  return this->Session->Result();
 }
 
 TrialRecord AccuracyEvaluation::Register(
@@ -160,16 +157,12 @@ TrialRecord AccuracyEvaluation::Register(
   StereoRegistrationSettings settings = this->Settings.registration;
   settings.entropyMask = approach == "B";
   const auto start = std::chrono::steady_clock::now();
-  this->Registration->RemoveAllXRaysAndROIs();
+  std::vector<vtkSmartPointer<vtkImageData>> xrays;
   for (const RegistrationView& item : views)
-    this->Registration->AddXRayData(ImageFromRowsTopFirst(item.xray, item.view.Columns(), item.view.Rows()));
-  this->Registration->SetSettings(settings);
-  this->Registration->Update();
-  const StereoRegistrationResult& result = this->Registration->GetResult();
-  if (!result.failures.empty() && result.failures.front().code == GateCode::InvalidInput)
-  {
-    throw InputError("registration", result.failures.front().message);
-  }
+    xrays.push_back(ImageFromRowsTopFirst(item.xray, item.view.Columns(), item.view.Rows()));
+  this->Session->SetXRays(xrays);
+  this->Session->Run(settings);
+  const StereoRegistrationResult& result = this->Session->Result();
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return MakeTrialRecord(trial, approach, this->Scenario, truth, result, this->Targets, this->RoomIsocenter,
     this->Settings.successMTRE, seconds);

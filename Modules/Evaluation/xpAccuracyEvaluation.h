@@ -1,7 +1,8 @@
 /**
  * @file xpAccuracyEvaluation.h
  * @brief The trials of `xpose evaluate`: known misalignments, simulated X-rays, registrations
- *        through the registration filter, and how far each ends from the truth.
+ *        by a registration session on them (xpRegistrationSession.h), and how far each ends from
+ *        the truth.
  */
 #ifndef xpAccuracyEvaluation_h
 #define xpAccuracyEvaluation_h
@@ -17,14 +18,15 @@
 #include <vtkSmartPointer.h>
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 class vtkImageData;
-class vtkXPStereoRegistrationFilter;
 
 namespace xp
 {
+class RegistrationSession;
 
 /** Everything that makes trials comparable, apart from the inputs. */
 struct AccuracyEvaluationSettings
@@ -81,7 +83,7 @@ private:
   Eigen::Vector3d RoomIsocenter;
   std::vector<Eigen::Vector3d> Targets;
   TrialXRaySource XRays;
-  vtkSmartPointer<vtkXPStereoRegistrationFilter> Registration;
+  std::unique_ptr<RegistrationSession> Session; ///< one for all trials: the CT's attenuation is kept
 };
 
 } // namespace xp

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Usage: register-matches-command.sh XPOSE PYTHON SOURCE_DIR WORK_DIR
-# Simulated phantom X-rays registered by `xpose register` and by Examples/Python/register.py:
-# both must report the same misalignment and correction to 1e-6, and the same status.
+# Simulated phantom X-rays registered by `xpose register` and by Examples/Python/register.py (the
+# filter pipeline): both must report the same misalignment and correction to 1e-6, and the same
+# status. Then by the command from a given start and by the Python session
+# (xpose.vtkXPRegistrationSession) from the same files and options: one session code, so the same
+# record (timings apart) and the same result folder's files.
 set -euo pipefail
 xpose=$1 python=$2 source=$3 work=$4
 geometry=$source/Data/geometry/stereo-oblique-90.json
@@ -23,4 +26,50 @@ worst = max(abs(a - b) for key in ("misalignment", "correction")
 print("status", command["status"], python["status"], "largest difference", worst)
 print("misalignment", numbers(python["misalignment"]))
 sys.exit(0 if command["status"] == python["status"] == "ok" and worst <= 1e-6 else 1)
+PY
+"$xpose" register --ct "$work/ct" --geometry "$geometry" --xray "$work/xray/xray_A.png" --xray "$work/xray/xray_B.png" \
+  --size 256x192 --initial-pose 1,0,0,0,0,0 --out-dir "$work/command-from-start" >/dev/null || test $? -eq 3
+"$python" - "$work" "$geometry" <<'PY'
+import json, os, sys
+import xpose
+work, geometry = sys.argv[1:3]
+session = xpose.vtkXPRegistrationSession()
+session.SetCTPath(f"{work}/ct")
+session.SetGeometryPath(geometry)
+session.AddXRayPath(f"{work}/xray/xray_A.png")
+session.AddXRayPath(f"{work}/xray/xray_B.png")
+session.SetSize("256x192")
+session.SetInitialPose(1, 0, 0, 0, 0, 0)
+status = session.Run()
+if status < 0:
+    sys.exit("session refused: " + session.GetLastError())
+if not session.WriteResultFolder(f"{work}/python"):
+    sys.exit("session could not write: " + session.GetLastError())
+# A refused input says which file, and leaves nothing to write.
+refused = xpose.vtkXPRegistrationSession()
+refused.GlobalWarningDisplayOff()
+refused.SetCTPath(f"{work}/no-such-ct")
+refused.SetGeometryPath(geometry)
+refused.AddXRayPath(f"{work}/xray/xray_A.png")
+assert refused.Run() == -1 and "no-such-ct" in refused.GetLastError(), refused.GetLastError()
+assert refused.GetResultJSON() == "" and not refused.WriteResultFolder(f"{work}/refused")
+
+def without_times(record):
+    record.pop("timing_s")
+    for stage in record["convergence"]["stages"]:
+        stage.pop("seconds")
+    return record
+command = without_times(json.load(open(f"{work}/command-from-start/result.json")))
+python = without_times(json.loads(session.GetResultJSON()))
+written = without_times(json.load(open(f"{work}/python/result.json")))
+print("status", command["status"], python["status"], "misalignment", python["misalignment"])
+assert python == written, "the written result.json differs from the session's record"
+differences = sorted(k for k in command if command[k] != python.get(k))
+assert not differences, f"the session's record differs from the command's in {differences}"
+assert (status == 1) == (command["status"] == "ok")
+names = sorted(os.listdir(f"{work}/command-from-start"))
+assert names == sorted(os.listdir(f"{work}/python")), names
+for name in names:
+    if name.endswith(".png"):
+        assert open(f"{work}/command-from-start/{name}", "rb").read() == open(f"{work}/python/{name}", "rb").read(), name
 PY

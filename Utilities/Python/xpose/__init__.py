@@ -5,6 +5,9 @@ The filters are VTK algorithms: connect them to VTK's own readers, writers and n
 filters themselves: a geometry read from its JSON file, a pose as six numbers (tx, ty, tz in mm;
 pitch, roll, yaw in degrees; GEOMETRY.md), and the registration's result as the JSON record that
 `xpose register` writes to result.json.
+
+vtkXPRegistrationSession runs what `xpose register` runs, from the same files: the same inputs
+give the same pose and verdict as the command.
 """
 # Debian's VTK modules that hold the filters' base classes, loaded before the filters.
 import vtkmodules.vtkCommonCore  # noqa: F401
@@ -17,6 +20,7 @@ from .vtkXPMasking import vtkXPEntropyMaskFilter  # noqa: F401
 from .vtkXPMetrics import vtkXPMutualInformationMetric  # noqa: F401
 from .vtkXPRegistration import vtkXPStereoRegistrationFilter  # noqa: F401
 from .vtkXPReporting import vtkXPOverlayFilter  # noqa: F401
+from .vtkXPSession import vtkXPRegistrationSession  # noqa: F401
 
 __all__ = [
     "vtkXPDICOMCTReader",
@@ -25,4 +29,5 @@ __all__ = [
     "vtkXPMutualInformationMetric",
     "vtkXPStereoRegistrationFilter",
     "vtkXPOverlayFilter",
+    "vtkXPRegistrationSession",
 ]

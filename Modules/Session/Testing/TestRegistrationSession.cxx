@@ -1,0 +1,89 @@
+// The session reads and checks its sources before any registration work, naming the file or the
+// option of each refusal; what it records of them lets `xpose report` find them again.
+#include "xpRegistrationSession.h"
+
+#include "xpDICOMSeriesWriter.h"
+#include "xpError.h"
+#include "xpHeadPhantom.h"
+#include "xpTestFolders.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace
+{
+
+std::string Refusal(const xp::RegistrationSources& sources)
+{
+  try
+  {
+    xp::RegistrationSession session(sources);
+  }
+  catch (const xp::InputError& e)
+  {
+    return e.what();
+  }
+  return "accepted";
+}
+
+/** A coarse phantom CT series, and the sources that name it with the reference geometry. */
+xp::RegistrationSources PhantomSources(const std::string& name)
+{
+  const std::string dir = xp::testing::FreshFolder(name);
+  std::filesystem::create_directories(dir + "/ct");
+  xp::WriteCTSeries(xp::MakeHeadPhantom(8.0), dir + "/ct");
+  xp::RegistrationSources sources;
+  sources.ct = dir + "/ct";
+  sources.geometry = XP_SOURCE_DIR "/Data/geometry/stereo-oblique-90.json";
+  sources.xrays = { dir + "/xray_A.png", dir + "/xray_B.png" }; // checked after the CT and the geometry
+  return sources;
+}
+
+} // namespace
+
+TEST(RegistrationSession, RefusesEachSourceByItsFileOrOption)
+{
+  xp::RegistrationSources sources = PhantomSources("session-refusals");
+  xp::RegistrationSources missing = sources;
+  missing.ct += "-missing";
+  EXPECT_NE(Refusal(missing).find("ct-missing"), std::string::npos) << Refusal(missing);
+  xp::RegistrationSources one = sources;
+  one.xrays.pop_back();
+  EXPECT_NE(Refusal(one).find("--xray"), std::string::npos) << Refusal(one);
+  EXPECT_NE(Refusal(one).find("2 imagers"), std::string::npos) << Refusal(one);
+  xp::RegistrationSources rois = sources;
+  rois.rois = { "roi_A.png" };
+  EXPECT_NE(Refusal(rois).find("--roi"), std::string::npos) << Refusal(rois);
+  xp::RegistrationSources size = sources;
+  size.size = "300x200"; // the reference panels are 1024x768
+  EXPECT_NE(Refusal(size).find("--size"), std::string::npos) << Refusal(size);
+  xp::RegistrationSources iso = sources;
+  iso.isocenterInCT = "1,2";
+  EXPECT_NE(Refusal(iso).find("--iso-ct"), std::string::npos) << Refusal(iso);
+  // All of the above were refused before the X-rays, which do not exist, were opened.
+  EXPECT_NE(Refusal(sources).find("xray_A.png"), std::string::npos) << Refusal(sources);
+}
+
+TEST(RegistrationSession, RecordsItsSourcesAsAbsolutePathsWithTheXRaysDigests)
+{
+  const std::string dir = xp::testing::FreshFolder("session-record");
+  std::ofstream(dir + "/a.png") << "first";
+  std::ofstream(dir + "/b.png") << "second";
+  xp::RegistrationSources sources;
+  sources.ct = dir + "/ct";
+  sources.geometry = dir + "/../" + dir + "/geometry.json";
+  sources.xrays = { dir + "/a.png", dir + "/b.png" };
+  sources.size = "256x192";
+  sources.removeTable = true;
+  const xp::RegistrationRecordInputs recorded = xp::RecordedInputs(sources, false);
+  const std::string here = std::filesystem::current_path().string();
+  EXPECT_EQ(recorded.ct, here + "/" + dir + "/ct");
+  EXPECT_EQ(recorded.geometry, here + "/" + dir + "/geometry.json") << "not normalised";
+  ASSERT_EQ(recorded.xrayMD5.size(), 2u);
+  EXPECT_NE(recorded.xrayMD5[0], recorded.xrayMD5[1]) << "each X-ray's own digest";
+  EXPECT_EQ(recorded.size, "256x192");
+  EXPECT_TRUE(recorded.removeTable);
+  EXPECT_FALSE(recorded.entropyMask);
+}

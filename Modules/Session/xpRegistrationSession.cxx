@@ -1,0 +1,141 @@
+#include "xpRegistrationSession.h"
+
+#include "vtkXPStereoRegistrationFilter.h"
+#include "xpError.h"
+#include "xpImageGeometry.h"
+#include "xpImageIO.h"
+
+#include <chrono>
+#include <filesystem>
+
+namespace xp
+{
+
+namespace
+{
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point start)
+{
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+} // namespace
+
+RegistrationSession::RegistrationSession(const RegistrationSources& sources)
+  : Given(sources)
+  , Registration(vtkSmartPointer<vtkXPStereoRegistrationFilter>::New())
+{
+  const Clock::time_point start = Clock::now();
+  this->Read = ReadRegistrationInputs(sources);
+  this->SecondsToRead = Since(start);
+  this->SetUpFilter();
+}
+
+RegistrationSession::RegistrationSession(
+  vtkImageData* ct, const PatientSetup& patient, const StereoGeometry& geometry, double muWater)
+  : Registration(vtkSmartPointer<vtkXPStereoRegistrationFilter>::New())
+{
+  this->Given.muWater = muWater;
+  this->Read.setup.ct.image = ct;
+  this->Read.setup.geometry = geometry;
+  this->Read.setup.patient = patient;
+  this->Read.isoInCT = patient.IsocenterInCT(ImageCenter(ct));
+  this->Read.planned = patient.PlannedCTToRoom(ImageCenter(ct));
+  this->SetUpFilter();
+}
+
+void RegistrationSession::SetUpFilter()
+{
+  vtkXPStereoRegistrationFilter* registration = this->Registration;
+  registration->SetCTData(this->Read.setup.ct.image);
+  registration->SetGeometry(this->Read.setup.geometry);
+  registration->SetPatientSetup(this->Read.setup.patient);
+  registration->SetMuWater(this->Given.muWater);
+  registration->SetShrinkFactor(this->Read.shrinkFactor);
+  this->SetXRays(this->Read.xrays, this->Read.rois);
+}
+
+void RegistrationSession::SetXRays(
+  const std::vector<vtkSmartPointer<vtkImageData>>& xrays, const std::vector<vtkSmartPointer<vtkImageData>>& rois)
+{
+  this->Read.xrays = xrays;
+  this->Read.rois = rois;
+  this->Registration->RemoveAllXRaysAndROIs();
+  for (vtkImageData* xray : xrays)
+    this->Registration->AddXRayData(xray);
+  for (vtkImageData* roi : rois)
+    this->Registration->AddROIData(roi);
+}
+
+RegistrationSession::~RegistrationSession() = default;
+
+std::vector<GlobalCandidate> RegistrationSession::FindStarts() const
+{
+  const RegistrationInputs& inputs = this->Read;
+  const std::unique_ptr<AttenuationVolume> volume = MakeAttenuationVolume(inputs.setup.ct.image, this->Given.muWater);
+  std::vector<GlobalCandidate> candidates = FindGlobalStarts(*volume, inputs.planned, inputs.setup.geometry.isocenter,
+    inputs.planned * ImageCenter(inputs.setup.ct.image), inputs.views);
+  if (candidates.empty())
+    throw InputError("--global-search", "no orientation of the volume matches both X-rays: give --initial-pose");
+  return candidates;
+}
+
+const RegistrationRecord& RegistrationSession::Run(const StereoRegistrationSettings& settings)
+{
+  const Clock::time_point start = Clock::now();
+  this->RunSettings = settings;
+  this->Registration->SetSettings(settings);
+  this->Registration->Update();
+  const StereoRegistrationResult& result = this->Registration->GetResult();
+  if (!result.failures.empty() && result.failures.front().code == GateCode::InvalidInput)
+    throw InputError("registration", result.failures.front().message);
+  std::vector<std::string> viewNames;
+  for (const XRayView& view : this->Read.setup.geometry.views)
+    viewNames.push_back(view.name);
+  this->Recorded = MakeRegistrationRecord(result, viewNames);
+  this->Recorded.readSeconds = this->SecondsToRead;
+  this->Recorded.totalSeconds = this->SecondsToRead + Since(start);
+  if (this->FromFiles())
+    this->Recorded.inputs = RecordedInputs(this->Given, settings.entropyMask);
+  this->Recorded.volumeToRoom =
+    MisalignedCTToRoom(this->Read.planned, result.misalignment, this->Read.setup.patient.roomIsocenter);
+  this->Recorded.volumeCenter = ImageCenter(this->Read.setup.ct.image);
+  return this->Recorded;
+}
+
+vtkXPStereoRegistrationFilter* RegistrationSession::Filter() const
+{
+  return this->Registration;
+}
+
+const StereoRegistrationResult& RegistrationSession::Result() const
+{
+  return this->Registration->GetResult();
+}
+
+RegistrationRecordInputs RecordedInputs(const RegistrationSources& sources, bool entropyMask)
+{
+  const auto absolute = [](const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); };
+  RegistrationRecordInputs in;
+  in.ct = absolute(sources.ct);
+  in.series = sources.series;
+  in.voxelSize = sources.voxelSize;
+  in.geometry = absolute(sources.geometry);
+  for (const std::string& xray : sources.xrays)
+  {
+    in.xrays.push_back(absolute(xray));
+    in.xrayMD5.push_back(FileMD5(xray));
+  }
+  for (const std::string& roi : sources.rois)
+    in.rois.push_back(absolute(roi));
+  in.size = sources.size;
+  in.isocenterInCT = sources.isocenterInCT;
+  in.muWater = sources.muWater;
+  in.entropyMask = entropyMask;
+  in.removeTable = sources.removeTable;
+  return in;
+}
+
+} // namespace xp

@@ -1,0 +1,144 @@
+#include "xpRegistrationSources.h"
+
+#include "vtkXPStereoRegistrationFilter.h"
+#include "xpBodyMask.h"
+#include "xpDICOMXRay.h"
+#include "xpError.h"
+#include "xpImageGeometry.h"
+#include "xpImageIO.h"
+#include "xpImageRows.h"
+#include "xpSessionOptions.h"
+#include "xpVolumeIO.h"
+
+#include <algorithm>
+
+namespace xp
+{
+
+DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& voxelSize,
+  const std::string& geometryPath,
+  const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize)
+{
+  if (method != "trilinear" && method != "siddon")
+  {
+    throw InputError("--method", "expected trilinear or siddon, got '" + method + "'");
+  }
+  if (!(muWater > 0.0 && muWater < 1.0))
+  {
+    throw InputError("--mu-water", "must be between 0 and 1 per mm");
+  }
+  if (stepSize != 0.0)
+  {
+    CheckLimit(stepSize, 0.01, 100.0, "--step");
+  }
+  DRRSetup setup;
+  setup.geometry = ReadStereoGeometry(geometryPath); // geometry first: cheap to check
+  setup.ct = ReadCTVolume(ctPath, series, ParseVoxelSize(voxelSize, "--voxel-size"));
+  // Steps far below a voxel add nothing but time (1e-9 mm ran without end): bound the work.
+  double spacing[3];
+  setup.ct.image->GetSpacing(spacing);
+  const double voxel = std::min({ spacing[0], spacing[1], spacing[2] });
+  if (stepSize != 0.0 && stepSize < voxel / 16.0)
+  {
+    throw InputError("--step", std::to_string(stepSize) + " mm is finer than 1/16 of the smallest voxel (" +
+        std::to_string(voxel) + " mm): it would multiply the time and change nothing");
+  }
+  setup.filter = vtkSmartPointer<vtkXPDRRFilter>::New();
+  setup.filter->SetInputData(setup.ct.image);
+  setup.patient.position = ParsePatientPosition(setup.ct.patientPosition, ctPath);
+  setup.patient.roomIsocenter = setup.geometry.isocenter;
+  if (!isocenterInCT.empty())
+    setup.patient.isocenterInCT = ParsePoint(isocenterInCT, "--iso-ct");
+  setup.filter->SetPatientSetup(setup.patient);
+  setup.filter->SetMuWater(muWater);
+  setup.filter->SetMethod(method == "siddon" ? 1 : 0);
+  setup.filter->SetStepSize(stepSize);
+  return setup;
+}
+
+int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::string& size)
+{
+  if (size.empty())
+    return 1;
+  const auto [columns, rows] = ParseSize(size, "--size");
+  const int factor = panels[0].Columns() / columns;
+  for (const XRayView& panel : panels)
+  {
+    if (factor < 1 || panel.Columns() != columns * factor || panel.Rows() != rows * factor)
+    {
+      throw InputError("--size", size + " must divide imager " + panel.name + "'s " + std::to_string(panel.Columns()) + "x" +
+          std::to_string(panel.Rows()) + " pixels by a whole number");
+    }
+  }
+  return factor;
+}
+
+RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
+{
+  RegistrationInputs inputs;
+  inputs.setup = MakeDRRSetup(sources.ct, sources.series, sources.voxelSize, sources.geometry, sources.isocenterInCT, sources.muWater,
+    "trilinear", 0.0);
+  if (sources.removeTable)
+  {
+    // The CT's table is not the treatment couch: render from the body alone.
+    inputs.setup.ct.image = BodyOnly(inputs.setup.ct.image, {}, &inputs.tableVoxelsRemoved);
+    inputs.setup.filter->SetInputData(inputs.setup.ct.image);
+  }
+  const DRRSetup& setup = inputs.setup;
+  ValidateStereoGeometry(setup.geometry, sources.geometry);
+  const std::vector<XRayView>& panels = setup.geometry.views;
+  if (sources.xrays.size() != panels.size())
+  {
+    throw InputError("--xray", "the geometry has " + std::to_string(panels.size()) + " imagers; give one X-ray each, in order (got " +
+        std::to_string(sources.xrays.size()) + ")");
+  }
+  if (!sources.rois.empty() && sources.rois.size() != panels.size())
+  {
+    throw InputError("--roi", "give one ROI per X-ray, in the same order");
+  }
+  inputs.shrinkFactor = RegistrationShrinkFactor(panels, sources.size);
+  std::vector<vtkImageData*> xrays, rois;
+  for (size_t v = 0; v < panels.size(); ++v)
+  {
+    inputs.xrays.push_back(ReadXRayImage(sources.xrays[v]));
+    xrays.push_back(inputs.xrays.back());
+    if (!sources.rois.empty())
+    {
+      inputs.rois.push_back(ReadMaskPNG(sources.rois[v], panels[v].Columns(), panels[v].Rows()));
+      rois.push_back(inputs.rois.back());
+    }
+  }
+  // An image intensifier's black corners are no anatomy: its disc joins the ROI.
+  bool anyField = false;
+  for (size_t v = 0; v < panels.size(); ++v)
+  {
+    inputs.fields.push_back(FindCircularField(RowsTopFirst<uint16_t>(xrays[v]), panels[v].Columns(), panels[v].Rows()));
+    anyField = anyField || inputs.fields.back().found;
+  }
+  if (anyField)
+  {
+    for (size_t v = 0; v < panels.size(); ++v)
+    {
+      std::vector<uint8_t> roi = rois.empty() ? std::vector<uint8_t>(static_cast<size_t>(panels[v].Columns()) * panels[v].Rows(), 1)
+                                              : RowsTopFirst<uint8_t>(rois[v]);
+      const CircularField& field = inputs.fields[v];
+      for (size_t i = 0; field.found && i < roi.size(); ++i)
+        roi[i] &= field.mask[i];
+      if (static_cast<size_t>(v) < inputs.rois.size())
+        inputs.rois[v] = ImageFromRowsTopFirst(roi, panels[v].Columns(), panels[v].Rows());
+      else
+        inputs.rois.push_back(ImageFromRowsTopFirst(roi, panels[v].Columns(), panels[v].Rows()));
+    }
+    rois.clear();
+    for (const auto& roi : inputs.rois)
+      rois.push_back(roi);
+  }
+  // The registration filter's own checks, here before any work and naming the files.
+  inputs.views = vtkXPStereoRegistrationFilter::PrepareViews(setup.geometry, xrays, rois, inputs.shrinkFactor, sources.xrays);
+  vtkImageData* ct = setup.ct.image;
+  inputs.isoInCT = setup.patient.IsocenterInCT(ImageCenter(ct));
+  inputs.planned = setup.patient.PlannedCTToRoom(ImageCenter(ct));
+  return inputs;
+}
+
+} // namespace xp

@@ -1,0 +1,94 @@
+/**
+ * @file xpRegistrationSources.h
+ * @brief Where a registration's inputs come from when they are files, and those inputs read and
+ *        checked once: the CT, the geometry, one X-ray per imager, their ROIs.
+ *
+ * `xpose register`, `track` and `listen` fill RegistrationSources from their options, `report`
+ * from a result.json's record, Python from the session's setters. Every refusal is an
+ * xp::InputError naming the file or the option, raised before any registration work.
+ */
+#ifndef xpRegistrationSources_h
+#define xpRegistrationSources_h
+
+#include "vtkXPSessionModule.h"
+
+#include "vtkXPDRRFilter.h"
+#include "xpAttenuationVolume.h"
+#include "xpCTVolume.h"
+#include "xpFieldOfView.h"
+#include "xpStereoGeometry.h"
+#include "xpStereoSimilarity.h"
+
+#include <Eigen/Geometry>
+#include <vtkImageData.h>
+#include <vtkSmartPointer.h>
+
+#include <string>
+#include <vector>
+
+namespace xp
+{
+
+/** A registration's input files and how to read them, as the options name them. */
+struct RegistrationSources
+{
+  std::string ct;                   ///< DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (--ct)
+  std::string series;               ///< Series Instance UID when the folder holds several (--series)
+  std::string voxelSize;            ///< "x,y,z" mm, for a TIFF stack (--voxel-size)
+  std::string geometry;             ///< the stereo geometry JSON (--geometry)
+  std::vector<std::string> xrays;   ///< one per imager, in the geometry's order (--xray)
+  std::vector<std::string> rois;    ///< optional, one per X-ray (--roi)
+  std::string size;                 ///< registration resolution COLSxROWS, dividing the panel (--size)
+  std::string isocenterInCT;        ///< "x,y,z" LPS mm; empty: the CT's centre (--iso-ct)
+  double muWater = WaterAttenuationPerMM; ///< water's attenuation per mm (--mu-water)
+  bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
+};
+
+/** A CT and geometry read, and one DRR filter placed like the CT (its view set per imager). */
+struct DRRSetup
+{
+  CTVolume ct;
+  StereoGeometry geometry;
+  PatientSetup patient;
+  vtkSmartPointer<vtkXPDRRFilter> filter;
+};
+
+/**
+ * Reads the geometry and the CT and configures one DRR filter (view set later per imager).
+ * `isocenterInCT` is "x,y,z" in LPS mm or empty for the CT centre; `method` trilinear|siddon;
+ * `voxelSize` "x,y,z" mm for a TIFF volume (--voxel-size), else empty.
+ */
+VTKXPSESSION_EXPORT DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series,
+  const std::string& voxelSize, const std::string& geometryPath, const std::string& isocenterInCT, double muWater,
+  const std::string& method, double stepSize);
+
+/** What a registration needs, read from its sources and checked. */
+struct RegistrationInputs
+{
+  DRRSetup setup;                         ///< CT, geometry, and a DRR filter placed like the CT
+  std::vector<vtkSmartPointer<vtkImageData>> xrays; ///< as read, the panels' size
+  std::vector<vtkSmartPointer<vtkImageData>> rois;  ///< none, or one per X-ray
+  int shrinkFactor = 1;                   ///< --size: the panels' pixels per registration pixel
+  /** The X-rays and ROIs as the registration filter prepares them (at the registration size). */
+  std::vector<RegistrationView> views;
+  Eigen::Vector3d isoInCT = Eigen::Vector3d::Zero();
+  Eigen::Isometry3d planned = Eigen::Isometry3d::Identity(); ///< CT (LPS) -> Room, planned set-up
+  long long tableVoxelsRemoved = 0;       ///< with removeTable: voxels outside the body set to air
+  /** Per X-ray: the image intensifier's circular field found in it (xpFieldOfView.h), whose
+   *  outside is left out of the ROI. */
+  std::vector<CircularField> fields;
+};
+
+/**
+ * The whole factor by which `size` ("COLSxROWS", empty = 1) divides every panel; throws
+ * xp::InputError naming --size when it does not.
+ */
+VTKXPSESSION_EXPORT int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::string& size);
+
+/** Reads and checks the CT, geometry, X-rays and ROIs of `sources`; throws xp::InputError naming
+ *  the file or option. */
+VTKXPSESSION_EXPORT RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources);
+
+} // namespace xp
+
+#endif

@@ -1,0 +1,72 @@
+#include "xpSessionOptions.h"
+
+#include "xpError.h"
+#include "xpStereoRegistration.h"
+
+#include <cstdio>
+
+namespace xp
+{
+
+std::pair<int, int> ParseSize(const std::string& text, const std::string& field)
+{
+  int columns = 0, rows = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &columns, &x, &rows, &extra) != 3 || (x != 'x' && x != 'X') ||
+    columns < 1 || rows < 1 || columns > 16384 || rows > 16384)
+  {
+    throw InputError(field, "expected COLSxROWS such as 512x384, got '" + text + "'");
+  }
+  return { columns, rows };
+}
+
+Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field)
+{
+  Eigen::Vector3d p;
+  char c1 = 0, c2 = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf%c", &p[0], &c1, &p[1], &c2, &p[2], &extra) != 5 || c1 != ',' ||
+    c2 != ',' || !p.allFinite())
+  {
+    throw InputError(field, "expected x,y,z in mm, got '" + text + "'");
+  }
+  return p;
+}
+
+void CheckLimit(double value, double low, double high, const std::string& option)
+{
+  if (!(value >= low && value <= high))
+  {
+    char range[96];
+    std::snprintf(range, sizeof(range), "must be a number from %g to %g, got %g", low, high, value);
+    throw InputError(option, range);
+  }
+}
+
+void SetOptimizers(const std::string& text, StereoRegistrationSettings& settings, const std::string& option)
+{
+  const size_t slash = text.find('/');
+  settings.optimizer = ParsePoseOptimizerMethod(text.substr(0, slash), option);
+  settings.refinementOptimizer = ParsePoseOptimizerMethod(slash == std::string::npos ? text : text.substr(slash + 1), option);
+}
+
+void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
+{
+  CheckLimit(settings.bins, 8, 256, "--bins");
+  CheckLimit(settings.maxEvaluations, 10, 100000, "--max-evaluations");
+  CheckLimit(settings.fineHighPassMM, 0.0, 500.0, "--high-pass-mm");
+  CheckLimit(settings.xraySmoothingPerVoxel, 0.0, 10.0, "--xray-smoothing");
+  CheckLimit(settings.fineRenderStride, 0, 8, "--fine-render-stride");
+  CheckLimit(settings.searchRenderStride, 0, 8, "--search-render-stride");
+  CheckLimit(settings.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");
+  CheckLimit(settings.coverageMinExcess, 0.0, 1.0, "--coverage-min-excess");
+  CheckLimit(settings.maxTranslation, 0.1, 500.0, "--max-translation");
+  CheckLimit(settings.maxRotation, 0.1, 180.0, "--max-rotation");
+  CheckLimit(settings.minExplained, 0.0, 1.0, "--min-explained");
+  CheckLimit(settings.maxViewResidual, 0.01, 100.0, "--max-view-residual");
+  CheckLimit(settings.maxUncovered, 0.001, 1.0, "--max-uncovered");
+  CheckLimit(settings.maxSearchDisagreementMM, 0.0, 100.0, "--max-search-apart-mm");
+  CheckLimit(settings.maxSearchDisagreementDegrees, 0.001, 45.0, "--max-search-apart-deg");
+  CheckLimit(settings.maxRefinedApartDegrees, 0.001, 45.0, "--max-refined-apart-deg");
+}
+
+} // namespace xp
