@@ -1,5 +1,8 @@
-// Renders a DRR of a water cube with the installed vtkXPDRRFilter and checks the centre pixel.
+// Renders a DRR of a water cube with the installed vtkXPDRRFilter and checks the centre pixel;
+// and a registration session, whose sources are checked before any work, refuses a missing CT.
 #include <vtkXPDRRFilter.h>
+#include <xpError.h>
+#include <xpRegistrationSession.h>
 
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -8,6 +11,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 int main()
 {
@@ -35,5 +39,21 @@ int main()
   drr->Update();
   const float centre = static_cast<float*>(drr->GetOutput(1)->GetScalarPointer())[15 * 31 + 15];
   std::printf("line integral through 40 mm of water: %.4f (expected %.4f)\n", centre, 0.02 * 40);
-  return std::abs(centre - 0.8) < 1e-3 ? 0 : 1;
+  if (!(std::abs(centre - 0.8) < 1e-3))
+    return 1;
+
+  xp::RegistrationSources sources;
+  sources.ct = "no-such-ct";
+  sources.geometry = XPOSE_GEOMETRY;
+  sources.xrays = { "a.png", "b.png" };
+  try
+  {
+    xp::RegistrationSession session(sources);
+  }
+  catch (const xp::InputError& e)
+  {
+    std::printf("session refused: %s\n", e.what());
+    return std::string(e.what()).find("no-such-ct") != std::string::npos ? 0 : 1;
+  }
+  return 1;
 }
