@@ -4,6 +4,7 @@
 #include "xpDICOMArchive.h"
 #include "xpError.h"
 #include "xpImageIO.h"
+#include "xpRegistrationArchive.h"
 #include "xpRegistrationSession.h"
 #include "xpRegistrationWriters.h"
 #include "xpVolumeIO.h"
@@ -13,10 +14,8 @@
 #include <vtkCommand.h>
 #include <vtkNew.h>
 
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <optional>
 
@@ -124,10 +123,8 @@ void WarnOfGeometryTags(const RegisterOptions& options, const DRRSetup& setup)
       std::fprintf(stderr, "xpose register: warning: %s: %s\n", options.xrays[v].c_str(), difference.c_str());
 }
 
-/**
- * --pacs: the CT series and the X-rays fetched from the archive into OUT/pacs-inputs (kept, so
- * that `xpose report` can rebuild the pictures), and the options that register them from there.
- */
+/** --pacs: the options that register the CT series and the X-rays fetched from the archive
+ *  into OUT/pacs-inputs, and write the DICOM results to be stored back. */
 RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMArchive& archive)
 {
   if (!options.ct.empty() || !options.xrays.empty())
@@ -138,44 +135,20 @@ RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMArch
     throw InputError("--xray-instance", "give the X-rays' SOP Instance UIDs, one per imager in order");
   StagedOutputDirectory::CheckWritable(options.outputDirectory);
   archive.CheckReachable();
-  const std::string series = options.ctSeries.empty() ? archive.CTSeriesOfStudy(options.study) : options.ctSeries;
+  const std::string folder = options.outputDirectory + "/pacs-inputs";
+  const ArchivedInputs fetched =
+    FetchRegistrationInputs(archive, options.study, options.ctSeries, options.xrayInstances, folder);
   RegisterOptions local = options;
   local.pacs.clear();
   local.pacsCredentials.clear();
-  const std::string folder = options.outputDirectory + "/pacs-inputs";
-  std::filesystem::remove_all(folder);
-  std::filesystem::create_directories(folder + "/ct");
-  archive.FetchSeries(series, folder + "/ct");
-  local.ct = folder + "/ct";
-  local.series = series;
-  for (size_t v = 0; v < options.xrayInstances.size(); ++v)
-  {
-    local.xrays.push_back(folder + "/xray_" + std::to_string(v + 1) + ".dcm");
-    archive.FetchInstance(options.xrayInstances[v], local.xrays.back());
-  }
+  local.ct = fetched.ctFolder;
+  local.series = fetched.ctSeries;
+  local.xrays = fetched.xrays;
   if (local.dicomOutputDirectory.empty())
     local.dicomOutputDirectory = options.outputDirectory + "/dicom";
-  std::printf("pacs: CT series %s and %zu X-rays fetched from %s into %s\n", series.c_str(), local.xrays.size(),
+  std::printf("pacs: CT series %s and %zu X-rays fetched from %s into %s\n", fetched.ctSeries.c_str(), local.xrays.size(),
     archive.Address().c_str(), folder.c_str());
   return local;
-}
-
-/**
- * The DICOM results stored in the archive: the RT Image DRRs and the report's Secondary Capture,
- * then the REG (written for an ok result only), last: an archive cannot take an instance back, so
- * the REG that a planning system acts on is stored only when everything it refers to was.
- */
-void StoreInArchive(const DICOMArchive& archive, const std::string& dicomDirectory)
-{
-  std::vector<std::string> files;
-  for (const auto& entry : std::filesystem::directory_iterator(dicomDirectory))
-    if (entry.path().extension() == ".dcm" && entry.path().filename() != "reg.dcm")
-      files.push_back(entry.path().string());
-  std::sort(files.begin(), files.end());
-  if (std::filesystem::exists(dicomDirectory + "/reg.dcm"))
-    files.push_back(dicomDirectory + "/reg.dcm");
-  archive.Store(files);
-  std::printf("pacs: %zu DICOM objects stored in %s\n", files.size(), archive.Address().c_str());
 }
 
 void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)
@@ -199,7 +172,8 @@ int RunRegister(const RegisterOptions& options)
     const DICOMArchive& archive = *opened;
     const RegisterOptions local = FetchFromArchive(options, archive);
     const int code = RunRegister(local);
-    StoreInArchive(archive, local.dicomOutputDirectory);
+    const std::vector<std::string> stored = StoreRegistrationDICOM(archive, local.dicomOutputDirectory);
+    std::printf("pacs: %zu DICOM objects stored in %s\n", stored.size(), archive.Address().c_str());
     return code;
   }
   if (options.ct.empty() || options.xrays.empty())
