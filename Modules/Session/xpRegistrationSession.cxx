@@ -54,12 +54,17 @@ void RegistrationSession::SetUpFilter()
   registration->SetPatientSetup(this->Read.setup.patient);
   registration->SetMuWater(this->Given.muWater);
   registration->SetShrinkFactor(this->Read.shrinkFactor);
-  this->SetXRays(this->Read.xrays, this->Read.rois);
+  if (!this->Read.xrays.empty()) // a session on images in memory gets them with SetXRays
+    this->SetXRays(this->Read.xrays, this->Read.rois);
 }
 
 void RegistrationSession::SetXRays(
   const std::vector<vtkSmartPointer<vtkImageData>>& xrays, const std::vector<vtkSmartPointer<vtkImageData>>& rois)
 {
+  // The views as the filter will see them, checked now: Inputs() stays the X-rays' own.
+  std::vector<vtkImageData*> images(xrays.begin(), xrays.end()), masks(rois.begin(), rois.end());
+  this->Read.views = vtkXPStereoRegistrationFilter::PrepareViews(
+    this->Read.setup.geometry, images, masks, this->Read.shrinkFactor, this->Given.xrays);
   this->Read.xrays = xrays;
   this->Read.rois = rois;
   this->Registration->RemoveAllXRaysAndROIs();

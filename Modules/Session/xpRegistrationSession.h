@@ -45,7 +45,8 @@ public:
   RegistrationSession(const RegistrationSession&) = delete;
   RegistrationSession& operator=(const RegistrationSession&) = delete;
 
-  /** Replaces the X-rays (one per imager, at the geometry's size) and ROIs (none, or one each). */
+  /** Replaces the X-rays (one per imager, at the geometry's panel size) and ROIs (none, or one
+   *  each), and Inputs().views with them; throws xp::InputError when one does not fit its imager. */
   void SetXRays(const std::vector<vtkSmartPointer<vtkImageData>>& xrays,
     const std::vector<vtkSmartPointer<vtkImageData>>& rois = {});
 

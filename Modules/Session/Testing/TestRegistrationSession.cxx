@@ -5,9 +5,11 @@
 #include "xpDICOMSeriesWriter.h"
 #include "xpError.h"
 #include "xpHeadPhantom.h"
+#include "xpImageRows.h"
 #include "xpTestFolders.h"
 
 #include <gtest/gtest.h>
+#include <vtkImageData.h>
 
 #include <filesystem>
 #include <fstream>
@@ -86,4 +88,43 @@ TEST(RegistrationSession, RecordsItsSourcesAsAbsolutePathsWithTheXRaysDigests)
   EXPECT_EQ(recorded.size, "256x192");
   EXPECT_TRUE(recorded.removeTable);
   EXPECT_FALSE(recorded.entropyMask);
+}
+
+TEST(RegistrationSession, InMemoryTakesItsXRaysAndChecksEachAgainstItsImager)
+{
+  auto ct = vtkSmartPointer<vtkImageData>::New();
+  ct->SetDimensions(8, 8, 8);
+  ct->SetSpacing(4, 4, 4);
+  ct->AllocateScalars(VTK_FLOAT, 1);
+  xp::StereoGeometry geometry = xp::ReadStereoGeometry(XP_SOURCE_DIR "/Data/geometry/stereo-oblique-90.json");
+  for (xp::XRayView& view : geometry.views)
+    view = view.Resampled(64, 48);
+  xp::RegistrationSession session(ct, xp::PatientSetup{}, geometry);
+  EXPECT_FALSE(session.FromFiles());
+  EXPECT_TRUE(session.Inputs().views.empty()) << "no X-rays yet";
+  const auto xray = [](int columns, int rows, uint16_t seed)
+  {
+    auto image = vtkSmartPointer<vtkImageData>::New();
+    image->SetDimensions(columns, rows, 1);
+    image->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+    auto* p = static_cast<uint16_t*>(image->GetScalarPointer());
+    for (int i = 0; i < columns * rows; ++i)
+      p[i] = static_cast<uint16_t>((i * 7 + seed) % 4096);
+    return image;
+  };
+  const auto second = xray(64, 48, 2);
+  session.SetXRays({ xray(64, 48, 1), second });
+  ASSERT_EQ(session.Inputs().views.size(), 2u);
+  EXPECT_EQ(session.Inputs().views[1].view.Columns(), 64);
+  EXPECT_EQ(session.Inputs().views[1].xray, xp::RowsTopFirst<uint16_t>(second)) << "the second X-ray is the second view's";
+  try
+  {
+    session.SetXRays({ xray(64, 48, 1), xray(32, 24, 2) });
+    ADD_FAILURE() << "an X-ray of another size was taken";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("imager B"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(session.Inputs().views[1].xray, xp::RowsTopFirst<uint16_t>(second)) << "a refused pair changes nothing";
 }
