@@ -34,28 +34,42 @@ struct Scene
   std::vector<XRayView> views;
 };
 
-/** Median seconds to render every view once (all views together), over `repetitions` runs. */
+/** Median seconds to render every view once (all views together), over `repetitions` runs (and
+ *  one before them, uncounted, on the GPU: its volume and pixel lists go there once, as in a
+ *  registration). The traced pixels are listed before the clock starts, as a registration does. */
 double TimeViews(const Scene& scene, int columns, int rows, const std::vector<std::vector<uint8_t>>* masks,
-  RayCastMethod method, int repetitions, long long& rays)
+  const RayCastSettings& settings, int repetitions, long long& rays)
 {
   std::vector<double> times;
   std::vector<float> buffer(static_cast<size_t>(columns) * rows);
-  RayCastSettings settings;
-  settings.method = method;
-  for (int r = 0; r < repetitions; ++r)
+  std::vector<XRayView> views;
+  std::vector<TracedPixels> traced;
+  for (size_t v = 0; v < scene.views.size(); ++v)
+  {
+    views.push_back(scene.views[v].Resampled(columns, rows));
+    traced.emplace_back(columns, rows, masks ? (*masks)[v].data() : nullptr);
+  }
+  const int warmUp = settings.device == ComputeDevice::CUDA ? 1 : 0;
+  for (int r = 0; r < repetitions + warmUp; ++r)
   {
     rays = 0;
     const Clock::time_point start = Clock::now();
-    for (size_t v = 0; v < scene.views.size(); ++v)
-    {
-      const XRayView view = scene.views[v].Resampled(columns, rows);
-      rays += RenderLineIntegrals(scene.volume, scene.ctToRoom, view.source, DetectorGrid::TopRowFirst(view),
-        masks ? (*masks)[v].data() : nullptr, buffer.data(), settings);
-    }
-    times.push_back(std::chrono::duration<double>(Clock::now() - start).count());
+    for (size_t v = 0; v < views.size(); ++v)
+      rays += RenderLineIntegrals(scene.volume, scene.ctToRoom, views[v].source, DetectorGrid::TopRowFirst(views[v]), traced[v],
+        buffer.data(), settings);
+    if (r >= warmUp)
+      times.push_back(std::chrono::duration<double>(Clock::now() - start).count());
   }
   std::nth_element(times.begin(), times.begin() + times.size() / 2, times.end());
   return times[times.size() / 2];
+}
+
+RayCastSettings Settings(RayCastMethod method, ComputeDevice device = ComputeDevice::CPU)
+{
+  RayCastSettings settings;
+  settings.method = method;
+  settings.device = device;
+  return settings;
 }
 
 /** Tiles of 16x16 pixels kept with probability `fraction` (a fixed hash): a mask with the
@@ -88,6 +102,7 @@ int RunBenchDRR(const BenchOptions& options)
   {
     throw InputError("--repetitions", "must be at least 1");
   }
+  const ComputeDevice device = UseDevice(options.device);
   DRRSetup setup = MakeDRRSetup(options.ct, options.series, "", options.geometry, "", WaterAttenuationPerMM, "trilinear", 0.0);
   vtkImageData* ct = setup.ct.image;
   int dims[3];
@@ -122,7 +137,7 @@ int RunBenchDRR(const BenchOptions& options)
       {
         vtkSMPTools::Initialize(threads);
         long long rays = 0;
-        const double seconds = TimeViews(scene, columns, rows, nullptr, method, options.repetitions, rays);
+        const double seconds = TimeViews(scene, columns, rows, nullptr, Settings(method), options.repetitions, rays);
         if (threads == 1)
           single = seconds;
         std::printf("%-10s %-9s %-7d %10lld %12.4f %14.2f %9.2fx\n",
@@ -135,7 +150,7 @@ int RunBenchDRR(const BenchOptions& options)
   vtkSMPTools::Initialize(cores);
   const auto [columns, rows] = ParseSize(options.maskSize, "--mask-size");
   long long fullRays = 0;
-  const double full = TimeViews(scene, columns, rows, nullptr, RayCastMethod::Trilinear, options.repetitions, fullRays);
+  const double full = TimeViews(scene, columns, rows, nullptr, Settings(RayCastMethod::Trilinear), options.repetitions, fullRays);
   std::printf("\nMasked rendering (trilinear, %s, %d threads): time should track the valid fraction\n"
               "%-14s %12s %12s %14s %16s\n",
     options.maskSize.c_str(), cores, "valid (%)", "rays", "time (s)", "M rays/s", "time / unmasked");
@@ -147,8 +162,37 @@ int RunBenchDRR(const BenchOptions& options)
     for (size_t v = 0; v < masks.size(); ++v)
       valid += TileMask(columns, rows, fraction, static_cast<int>(v) + 1, masks[v]) / masks.size();
     long long rays = 0;
-    const double seconds = TimeViews(scene, columns, rows, &masks, RayCastMethod::Trilinear, options.repetitions, rays);
+    const double seconds = TimeViews(scene, columns, rows, &masks, Settings(RayCastMethod::Trilinear), options.repetitions, rays);
     std::printf("%-14.1f %12lld %12.4f %14.2f %16.3f\n", 100.0 * valid, rays, seconds, rays / seconds / 1e6, seconds / full);
+  }
+  if (device == ComputeDevice::CUDA)
+  {
+    // The GPU beside the CPU's every core, each size timed on both in this run. Its time is
+    // RenderLineIntegrals' whole call: the rays, and the line integrals' way back to the host.
+    std::printf("\nOn the GPU, %s (trilinear, line integrals back in host memory), against the CPU's %d threads\n"
+                "%-9s %-10s %10s %12s %14s %12s %10s\n",
+      ComputeDeviceDescription(device).c_str(), cores, "size", "valid (%)", "rays", "time (s)", "M rays/s", "CPU (s)", "speed-up");
+    const auto row = [&](const std::string& size, int c, int r, const std::vector<std::vector<uint8_t>>* masks, double valid)
+    {
+      long long rays = 0, cpuRays = 0;
+      const double gpu = TimeViews(scene, c, r, masks, Settings(RayCastMethod::Trilinear, device), options.repetitions, rays);
+      const double cpu = TimeViews(scene, c, r, masks, Settings(RayCastMethod::Trilinear), options.repetitions, cpuRays);
+      std::printf("%-9s %-10.1f %10lld %12.5f %14.1f %12.4f %9.1fx\n", size.c_str(), 100.0 * valid, rays, gpu, rays / gpu / 1e6,
+        cpu, cpu / gpu);
+    };
+    for (const std::string& text : options.sizes)
+    {
+      const auto [c, r] = ParseSize(text, "--sizes");
+      row(text, c, r, nullptr, 1.0);
+    }
+    for (double fraction : options.validFractions)
+    {
+      std::vector<std::vector<uint8_t>> masks(scene.views.size());
+      double valid = 0.0;
+      for (size_t v = 0; v < masks.size(); ++v)
+        valid += TileMask(columns, rows, fraction, static_cast<int>(v) + 1, masks[v]) / masks.size();
+      row(options.maskSize, columns, rows, &masks, valid);
+    }
   }
   return ExitOk;
 }

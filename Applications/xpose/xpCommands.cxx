@@ -59,6 +59,16 @@ void UseThreads(int threads)
   vtkSMPTools::Initialize(threads);
 }
 
+ComputeDevice UseDevice(const std::string& device)
+{
+  const ComputeDeviceChoice choice = ChooseComputeDevice(device);
+  if (!choice.note.empty())
+    std::printf("device: %s\n", choice.note.c_str());
+  else if (choice.device != ComputeDevice::CPU)
+    std::printf("device: %s\n", choice.description.c_str());
+  return choice.device;
+}
+
 int RunPhantom(const PhantomOptions& options)
 {
   CheckLimit(options.spacing, 0.25, 10.0, "--spacing");

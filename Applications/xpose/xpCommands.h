@@ -52,6 +52,7 @@ struct DRROptions
   double stepSize = 0.0;      ///< mm; 0 = smallest voxel spacing
   double muWater = WaterAttenuationPerMM; ///< 1/mm
   int threads = 0;            ///< 0 = all cores
+  std::string device = "cpu";       ///< --device: auto | cpu | cuda (xpRayCaster.h, ChooseComputeDevice)
   std::string outputDirectory;
   std::string dicomOutputDirectory; ///< when set, the DRRs as RT Images too (needs a DICOM CT)
 };
@@ -66,6 +67,7 @@ struct BenchOptions
   std::string maskSize = "1024x768";
   std::vector<double> validFractions{ 0.10, 0.25, 0.50 };
   int repetitions = 3;
+  std::string device = "cpu";       ///< --device: auto | cpu | cuda (xpRayCaster.h, ChooseComputeDevice)
 };
 
 /** `xpose bench register`: registrations of simulated misalignments, timed per stage, once per
@@ -94,6 +96,7 @@ struct BenchRegisterOptions
   unsigned seed = 11;
   double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
   int threads = 0;
+  std::string device = "cpu";       ///< --device: auto | cpu | cuda (xpRayCaster.h, ChooseComputeDevice)
 };
 
 struct MaskOptions
@@ -132,6 +135,7 @@ struct RegisterOptions : RegistrationSources
   bool globalSearch = false;        ///< find the start (xpGlobalSearch.h); always for a TIFF volume without initialPose
   StereoRegistrationSettings settings; ///< the method and its quality gate, as the options set them
   int threads = 0;
+  std::string device = "cpu";       ///< --device: auto | cpu | cuda (xpRayCaster.h, ChooseComputeDevice)
   std::string outputDirectory;
   std::string reportDirectory;      ///< when set, the visual report is written there too
   /** When set, an `ok` result is also written there as a DICOM Spatial Registration (reg.dcm)
@@ -213,6 +217,7 @@ struct EvaluateOptions
   bool writeXRays = false;          ///< also write each trial's X-rays as PNG
   double successMTRE = 1.0;         ///< mm
   int threads = 0;
+  std::string device = "cpu";       ///< --device: auto | cpu | cuda (xpRayCaster.h, ChooseComputeDevice)
   std::string outputDirectory;
 };
 
@@ -269,6 +274,10 @@ void RouteVTKMessages();
 
 /** Sets the number of threads used by every parallel kernel (0 = all cores). */
 void UseThreads(int threads);
+
+/** Resolves --device (auto | cpu | cuda: ChooseComputeDevice) before any work: cuda without a
+ *  usable GPU is refused naming the option; auto without one prints why it runs on the CPU. */
+ComputeDevice UseDevice(const std::string& device);
 
 } // namespace xp
 

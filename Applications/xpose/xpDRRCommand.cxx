@@ -184,6 +184,10 @@ void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
 int RunDRR(const DRROptions& options)
 {
   UseThreads(options.threads);
+  if (options.device != "cpu" && (options.method == "siddon" || options.stepSize > 0.0))
+    throw InputError("--device", "the GPU casts trilinear rays with one sample per voxel plane: use it without --method "
+                                 "siddon and --step, or with --device cpu");
+  const ComputeDevice device = UseDevice(options.device);
   const Pose pose = Pose::Parse(options.pose, "--pose");
   std::pair<int, int> size{ 0, 0 };
   if (!options.size.empty())
@@ -197,6 +201,7 @@ int RunDRR(const DRROptions& options)
   vtkXPDRRFilter* drr = setup.filter;
   drr->SetMisalignment(pose);
   drr->SetOutputSize(size.first, size.second);
+  drr->SetDevice(device == ComputeDevice::CUDA ? 1 : 0);
 
   // Masks and the DICOM output's CT are checked before anything is rendered or written.
   const std::vector<vtkSmartPointer<vtkImageData>> masks = ReadViewMasks(options.maskDirectory, setup.geometry, size);

@@ -165,6 +165,7 @@ int RunEvaluate(const EvaluateOptions& options)
   CheckTrialOptions(options);
   AccuracyEvaluationSettings settings;
   settings.registration = RegistrationSettingsOf(options);
+  settings.registration.device = UseDevice(options.device);
   settings.seed = options.seed;
   settings.range = { options.minTranslation, options.maxTranslation, options.maxRotation };
   settings.successMTRE = options.successMTRE;

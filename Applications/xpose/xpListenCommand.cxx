@@ -152,6 +152,7 @@ int RunListen(const ListenOptions& options)
   if (options.outputDirectory.empty())
     throw InputError("--out-dir", "is required");
   CheckRegistrationSettings(options.registration.settings);
+  UseDevice(options.registration.device); // checked before serving, not at the first study
   StudyRegistrar registrar(options);
   StorageNodeSettings settings;
   settings.port = options.port;

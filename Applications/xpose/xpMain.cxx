@@ -10,6 +10,9 @@ namespace
 constexpr const char* VoxelSizeHelp = "A TIFF stack's voxel size x,y,z (mm): columns along x, rows along y, pages along z "
                                       "(first page lowest); values proportional to attenuation, 0 air, 1000 water";
 
+constexpr const char* DeviceHelp = "Where the DRRs' rays are cast: cpu, cuda (an NVIDIA GPU; refused without one) or "
+                                   "auto (the GPU where one is usable, else the CPU)";
+
 void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
 {
   command->add_option("--bins", settings.bins, "MI histogram bins")->capture_default_str();
@@ -124,6 +127,7 @@ CLI::App* AddDRRCommand(CLI::App& app, xp::DRROptions& options)
     ->capture_default_str();
   drrCommand->add_option("--mu-water", options.muWater, "Attenuation of water, 1/mm")->capture_default_str();
   drrCommand->add_option("--threads", options.threads, "Threads (0: all cores)")->capture_default_str();
+  drrCommand->add_option("--device", options.device, DeviceHelp)->capture_default_str();
   drrCommand->add_option("--out-dir", options.outputDirectory, "Output folder")->required();
   drrCommand->add_option("--dicom-out", options.dicomOutputDirectory,
     "Also write the DRRs as DICOM RT Images (drr_NAME.dcm) here; needs a DICOM CT");
@@ -146,6 +150,7 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
     ->capture_default_str();
   benchDRR->add_option("--repetitions", options.repetitions, "Runs per figure (the median is printed)")
     ->capture_default_str();
+  benchDRR->add_option("--device", options.device, DeviceHelp)->capture_default_str();
   benchRegister = benchCommand->add_subcommand(
     "register", "Registrations of simulated misalignments: time, DRRs, rays and CPU use per stage, per optimiser on the same trials");
   benchRegister->add_option("--ct", reg.ct, "CT: DICOM folder, .mha/.mhd or .nii/.nii.gz")->required();
@@ -179,6 +184,7 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
   benchRegister->add_option("--max-start-translation", reg.maxTranslation, "Largest start error drawn: translation, mm")->capture_default_str();
   benchRegister->add_option("--max-start-rotation", reg.maxRotation, "Largest start error drawn per angle, degrees")->capture_default_str();
   benchRegister->add_option("--threads", reg.threads, "Threads (0: all cores)")->capture_default_str();
+  benchRegister->add_option("--device", reg.device, DeviceHelp)->capture_default_str();
   return benchCommand;
 }
 
@@ -243,6 +249,7 @@ void AddRegistrationOptions(CLI::App* command, xp::RegisterOptions& options)
     ->capture_default_str();
   AddGateOptions(command, options.settings);
   command->add_option("--threads", options.threads, "Threads (0: all cores)");
+  command->add_option("--device", options.device, DeviceHelp)->capture_default_str();
 }
 
 CLI::App* AddTrackCommand(CLI::App& app, xp::TrackOptions& options)
@@ -357,6 +364,7 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
   evaluateCommand->add_option("--success-mtre", options.successMTRE, "Success: final mTRE below this, mm")
     ->capture_default_str();
   evaluateCommand->add_option("--threads", options.threads, "Threads (0: all cores)");
+  evaluateCommand->add_option("--device", options.device, DeviceHelp)->capture_default_str();
   evaluateCommand->add_option("--out-dir", options.outputDirectory,
     "Output folder; an interrupted evaluation resumes in it with the same options")->required();
   return evaluateCommand;

@@ -180,6 +180,7 @@ int RunRegister(const RegisterOptions& options)
     throw InputError(options.ct.empty() ? "--ct" : "--xray", "is required (or --pacs with --study or --ct-series and --xray-instance)");
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
+  const ComputeDevice device = UseDevice(options.device);
   CheckRegistrationSettings(options.settings);
   StereoRegistrationSettings optimizers;
   SetOptimizers(options.optimizer, optimizers, "--optimizer"); // checked before the CT is read
@@ -209,6 +210,7 @@ int RunRegister(const RegisterOptions& options)
         inputs.fields[v].radius);
 
   StereoRegistrationSettings settings = options.settings;
+  settings.device = device;
   SetOptimizers(options.optimizer, settings, "--optimizer");
   if (!options.initialPose.empty())
     settings.initialPose = Pose::Parse(options.initialPose, "--initial-pose");

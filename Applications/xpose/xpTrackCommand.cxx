@@ -58,6 +58,7 @@ int RunTrack(const TrackOptions& options)
           " X-rays: give one per imager, comma-separated, the same number in every frame");
   }
   StagedOutputDirectory::CheckWritable(options.outputDirectory);
+  UseDevice(options.registration.device); // checked before the first frame
   StagedOutputDirectory output(options.outputDirectory);
 
   std::ostringstream csv;

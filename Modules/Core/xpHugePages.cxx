@@ -2,8 +2,10 @@
 
 #include "xpError.h"
 
+#ifndef XP_WITHOUT_VTK
 #include <vtkFloatArray.h>
 #include <vtkShortArray.h>
+#endif
 
 #include <cstdint>
 #include <string>
@@ -61,6 +63,7 @@ void FreeHugePages(void* memory)
   }
 }
 
+#ifndef XP_WITHOUT_VTK
 namespace
 {
 
@@ -86,5 +89,7 @@ vtkSmartPointer<vtkShortArray> NewHugePageShortArray(vtkIdType count)
 {
   return NewHugePageArray<vtkShortArray>(count);
 }
+
+#endif
 
 } // namespace xp

@@ -11,14 +11,18 @@
 
 #include "vtkXPCoreModule.h"
 
+#ifndef XP_WITHOUT_VTK
 #include <vtkSmartPointer.h>
 #include <vtkType.h>
+#endif
 
 #include <cstddef>
 #include <memory>
 
+#ifndef XP_WITHOUT_VTK
 class vtkFloatArray;
 class vtkShortArray;
+#endif
 
 namespace xp
 {
@@ -45,9 +49,11 @@ HugePageArray<T> MakeHugePageArray(size_t count)
   return HugePageArray<T>(static_cast<T*>(AllocateHugePages(count * sizeof(T))), &FreeHugePages);
 }
 
+#ifndef XP_WITHOUT_VTK // (the VTK-free build of Utilities/GPU needs the memory only)
 /** A one-component array of `count` zeros that owns huge-page memory. */
 VTKXPCORE_EXPORT vtkSmartPointer<vtkFloatArray> NewHugePageFloatArray(vtkIdType count);
 VTKXPCORE_EXPORT vtkSmartPointer<vtkShortArray> NewHugePageShortArray(vtkIdType count);
+#endif
 
 } // namespace xp
 

@@ -244,6 +244,7 @@ int vtkXPDRRFilter::RequestData(vtkInformation*, vtkInformationVector** inputVec
     xp::RayCastSettings settings;
     settings.method = this->Method == 1 ? xp::RayCastMethod::Siddon : xp::RayCastMethod::Trilinear;
     settings.stepSize = this->StepSize;
+    settings.device = this->Device == 1 ? xp::ComputeDevice::CUDA : xp::ComputeDevice::CPU;
     this->NumberOfTracedRays = xp::RenderLineIntegrals(
       volume, ctToRoom, view.source, xp::DetectorGrid::BottomRowFirst(view), mask, integrals, settings);
     this->LastRenderSeconds = std::chrono::duration<double>(Clock::now() - renderStart).count();
@@ -272,4 +273,5 @@ void vtkXPDRRFilter::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "MuWater: " << this->MuWater << "\n";
   os << indent << "StepSize: " << this->StepSize << "\n";
   os << indent << "Method: " << (this->Method == 1 ? "Siddon" : "Trilinear") << "\n";
+  os << indent << "Device: " << (this->Device == 1 ? "CUDA" : "CPU") << "\n";
 }

@@ -87,6 +87,13 @@ public:
   ///@}
 
   ///@{
+  /** Where the rays are cast: 0 = the CPU (default), 1 = an NVIDIA GPU (CUDA; trilinear rays on
+   *  the voxel planes only, StepSize 0). Without a usable GPU, 1 fails the update with the reason. */
+  vtkSetClampMacro(Device, int, 0, 1);
+  vtkGetMacro(Device, int);
+  ///@}
+
+  ///@{
   /** Output columns and rows on the same panel (resampled pitch); 0 0 = the panel's own size. */
   vtkSetVector2Macro(OutputSize, int);
   vtkGetVector2Macro(OutputSize, int);
@@ -124,6 +131,7 @@ private:
   double MuWater = xp::WaterAttenuationPerMM;
   double StepSize = 0.0;
   int Method = 0;
+  int Device = 0;
   int OutputSize[2] = { 0, 0 };
   long long NumberOfTracedRays = 0;
   double LastRenderSeconds = 0.0;

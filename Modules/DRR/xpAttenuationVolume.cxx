@@ -1,10 +1,9 @@
 #include "xpAttenuationVolume.h"
 
 #include "xpError.h"
+#include "xpParallel.h"
 #include "xpHugePages.h"
 
-#include <vtkSMPThreadLocal.h>
-#include <vtkSMPTools.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -53,7 +52,7 @@ NonAirBox FindNonAirBox(const HU* hounsfield, const Eigen::Vector3i& dims, float
   // Non-air: at or above the threshold and of positive mu (above -1000 HU).
   const float lowest = std::max(air, std::nextafter(-1000.0f, 0.0f));
   std::vector<NonAirBox> slices(dims[2], NonAirBox(air));
-  vtkSMPTools::For(0, dims[2],
+  ParallelFor(0, dims[2],
     [&](int k0, int k1)
     {
       for (int k = k0; k < k1; ++k)
@@ -135,7 +134,7 @@ void AttenuationVolume::Store(const HU* hounsfield, const Eigen::Vector3i& array
   const double highestMu = this->Water / 1000.0 * std::max(0.0, highest + 1000.0);
   this->Step = highestMu > 0.0 ? highestMu / 65535.0 : 1.0;
   const float scale = static_cast<float>(this->Water / 1000.0 / this->Step);
-  vtkSMPTools::For(0, size[2],
+  ParallelFor(0, size[2],
     [&](int k0, int k1)
     {
       for (int k = k0; k < k1; ++k)
@@ -157,7 +156,7 @@ void AttenuationVolume::Store(const HU* hounsfield, const Eigen::Vector3i& array
   // The y-fastest copy, slice by slice.
   const size_t ny = this->Padded[1];
   this->MuYFastest = AllocateVoxels(nxy * this->Padded[2] + 2);
-  vtkSMPTools::For(0, this->Padded[2],
+  ParallelFor(0, this->Padded[2],
     [&](int k0, int k1)
     {
       for (int k = k0; k < k1; ++k)
@@ -175,7 +174,7 @@ void AttenuationVolume::Store(const HU* hounsfield, const Eigen::Vector3i& array
   const int b = 1 << BlockShift;
   this->Blocks = (this->Padded + Eigen::Vector3i::Constant(b - 1)) / b;
   this->Occupied.assign(static_cast<size_t>(this->Blocks.prod()), 0);
-  vtkSMPTools::For(0, this->Blocks[2],
+  ParallelFor(0, this->Blocks[2],
     [&](int bz0, int bz1)
     {
       for (int bz = bz0; bz < bz1; ++bz)
@@ -216,7 +215,7 @@ AttenuationVolume AttenuationVolume::Halved(const Eigen::Vector3i& factors) cons
     Eigen::Vector3i::Ones();
   // Back to HU, which Store takes: mean mu = muWater (1 + HU / 1000).
   std::vector<float> hounsfield(static_cast<size_t>(size.prod()));
-  vtkSMPTools::For(0, size[2],
+  ParallelFor(0, size[2],
     [&](int k0, int k1)
     {
       for (int k = k0; k < k1; ++k)

@@ -82,6 +82,8 @@ public:
   const uint16_t* Voxels() const { return this->Mu.get(); }
   /** The same voxels with y fastest, then x, then z: padded (x, y, z) at y + x * ny + z * nx * ny. */
   const uint16_t* VoxelsYFastest() const { return this->MuYFastest.get(); }
+  /** The voxels' owner, shared by copies: a GPU keeps its copy of the volume while this lives. */
+  std::shared_ptr<const void> Storage() const { return this->Mu; }
   /** mu (1/mm) of one step of Voxels(). */
   double Quantum() const { return this->Step; }
 

@@ -1,16 +1,18 @@
 #include "xpRayCaster.h"
 
 #include "xpAttenuationVolume.h"
+#include "xpCudaRayCaster.h"
 #include "xpError.h"
+#include "xpParallel.h"
 #include "xpXRayView.h"
 
-#include <vtkSMPTools.h>
 
 #include <immintrin.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <vector>
 
 namespace xp
@@ -581,13 +583,178 @@ double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
   return sum;
 }
 
+
+/** A DRR's rays in the volume's padded index space (xpJosephRay.h). */
+joseph::Job MakeJob(const Eigen::Affine3d& roomToIndex, const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid)
+{
+  joseph::Job job{};
+  const Eigen::Vector3d source = roomToIndex * sourceInRoom, origin = roomToIndex * grid.origin;
+  const Eigen::Vector3d column = roomToIndex.linear() * grid.columnStep, row = roomToIndex.linear() * grid.rowStep;
+  const Eigen::Vector3d roomOrigin = grid.origin - sourceInRoom;
+  for (int a = 0; a < 3; ++a)
+  {
+    job.source[a] = source[a];
+    job.origin[a] = origin[a];
+    job.column[a] = column[a];
+    job.row[a] = row[a];
+    job.roomOrigin[a] = roomOrigin[a];
+    job.roomColumn[a] = grid.columnStep[a];
+    job.roomRow[a] = grid.rowStep[a];
+  }
+  job.columns = grid.columns;
+  return job;
+}
+
+/**
+ * The process's GPU, made when first asked for, with the volumes and pixel lists it holds: each
+ * is uploaded once and kept while its owner on the host lives (a registration's CT, halved CT and
+ * masks), and given back at the next call after the owner is gone. Every call holds its lock.
+ */
+class SharedGPU
+{
+public:
+  static SharedGPU& Instance()
+  {
+    static SharedGPU gpu;
+    return gpu;
+  }
+
+  std::string DeviceName()
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    return this->Context().DeviceName();
+  }
+
+  /** The DRRs of `targets` in one launch; each target's traced pixels receive their integrals. */
+  long long Render(const AttenuationVolume& volume, const Eigen::Affine3d& roomToIndex, const std::vector<RenderTarget>& targets,
+    bool textureFilter)
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    cuda::GPUContext& gpu = this->Context();
+    const int volumeHandle = this->VolumeHandle(volume);
+    std::vector<joseph::Job> jobs;
+    std::vector<int> pixels;
+    std::vector<float*> out;
+    size_t total = 0;
+    for (const RenderTarget& target : targets)
+      total += target.pixels->Order().size();
+    this->Compact.resize(total);
+    total = 0;
+    for (const RenderTarget& target : targets)
+    {
+      jobs.push_back(MakeJob(roomToIndex, target.source, target.grid));
+      pixels.push_back(this->PixelHandle(*target.pixels));
+      out.push_back(this->Compact.data() + total);
+      total += target.pixels->Order().size();
+    }
+    const long long traced = gpu.Render(volumeHandle, jobs.data(), pixels.data(), static_cast<int>(targets.size()), out.data(),
+      textureFilter ? cuda::Interpolation::Texture : cuda::Interpolation::Float);
+    for (size_t t = 0; t < targets.size(); ++t)
+    {
+      const std::vector<int>& order = targets[t].pixels->Order();
+      const float* compact = out[t];
+      float* lineIntegrals = targets[t].lineIntegrals;
+      ParallelFor(size_t{ 0 }, order.size(), size_t{ 16384 },
+        [&](size_t begin, size_t end)
+        {
+          for (size_t n = begin; n < end; ++n)
+            lineIntegrals[order[n]] = compact[n];
+        });
+    }
+    return traced;
+  }
+
+  /** A metric view (GPUContext::AddMetricView) of `pixels`, kept until Release. */
+  int AddMetricView(const TracedPixels& pixels, const std::vector<uint8_t>& xrayBins, int bins, double low, double toCell,
+    const std::vector<uint8_t>& cellBins)
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    return this->Context().AddMetricView(this->PixelHandle(pixels), xrayBins.data(), bins, low, toCell, cellBins);
+  }
+
+  void Release(int handle)
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    if (this->GPU)
+      this->GPU->Remove(handle);
+  }
+
+  long long MutualInformation(const AttenuationVolume& volume, const std::vector<joseph::Job>& jobs, const std::vector<int>& views,
+    double* mi)
+  {
+    std::lock_guard<std::mutex> lock(this->Mutex);
+    cuda::GPUContext& gpu = this->Context();
+    return gpu.MutualInformation(this->VolumeHandle(volume), jobs.data(), views.data(), static_cast<int>(jobs.size()), mi);
+  }
+
+private:
+  struct Resident
+  {
+    std::weak_ptr<const void> owner;
+    int handle;
+  };
+
+  cuda::GPUContext& Context()
+  {
+    if (!this->GPU)
+      this->GPU = std::make_unique<cuda::GPUContext>();
+    return *this->GPU;
+  }
+
+  int VolumeHandle(const AttenuationVolume& volume)
+  {
+    return this->Handle(this->Volumes, volume.Storage(),
+      [&]
+      {
+        const Eigen::Vector3i& dims = volume.PaddedDimensions();
+        return this->GPU->AddVolume(volume.Voxels(), joseph::Grid{ { dims[0], dims[1], dims[2] }, volume.Quantum() });
+      });
+  }
+
+  int PixelHandle(const TracedPixels& pixels)
+  {
+    return this->Handle(this->PixelLists, pixels.Storage(),
+      [&] { return this->GPU->AddPixels(pixels.Order().data(), static_cast<int>(pixels.Order().size())); });
+  }
+
+  /** The handle of `owner`'s data on the GPU, uploaded by `upload` when it is not there yet;
+   *  the data of owners that are gone is given back first. */
+  template <typename Upload>
+  int Handle(std::vector<Resident>& list, const std::shared_ptr<const void>& owner, Upload upload)
+  {
+    this->Context();
+    for (auto it = list.begin(); it != list.end();)
+    {
+      if (it->owner.expired())
+      {
+        this->GPU->Remove(it->handle);
+        it = list.erase(it);
+      }
+      else
+        ++it;
+    }
+    for (const Resident& resident : list)
+      if (!resident.owner.owner_before(owner) && !owner.owner_before(resident.owner))
+        return resident.handle;
+    const int handle = upload();
+    list.push_back({ owner, handle });
+    return handle;
+  }
+
+  std::mutex Mutex;
+  std::unique_ptr<cuda::GPUContext> GPU;
+  std::vector<Resident> Volumes, PixelLists;
+  std::vector<float> Compact;
+};
+
 } // namespace
 
 TracedPixels::TracedPixels(int columns, int rows, const uint8_t* mask)
   : PanelColumns(columns)
   , PanelRows(rows)
 {
-  this->Pixels.reserve(static_cast<size_t>(columns) * rows);
+  auto pixels = std::make_shared<std::vector<int>>();
+  pixels->reserve(static_cast<size_t>(columns) * rows);
   for (int tileRow = 0; tileRow < rows; tileRow += TileRows)
   {
     for (int tileColumn = 0; tileColumn < columns; tileColumn += TileColumns)
@@ -599,12 +766,13 @@ TracedPixels::TracedPixels(int columns, int rows, const uint8_t* mask)
           const int pixel = row * columns + column;
           if (!mask || mask[pixel])
           {
-            this->Pixels.push_back(pixel);
+            pixels->push_back(pixel);
           }
         }
       }
     }
   }
+  this->Pixels = std::move(pixels);
 }
 
 long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
@@ -641,6 +809,13 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
       std::to_string(grid.rows));
   }
   const Eigen::Affine3d roomToIndex = (ctToRoom * volume.PaddedIndexToCT()).inverse();
+  if (settings.device == ComputeDevice::CUDA)
+  {
+    if (settings.method != RayCastMethod::Trilinear || settings.stepSize > 0.0)
+      throw Error("ray caster: the GPU casts Joseph's scheme only (trilinear, one sample per voxel plane)");
+    return SharedGPU::Instance().Render(
+      volume, roomToIndex, { RenderTarget{ sourceInRoom, grid, &pixels, lineIntegrals } }, settings.textureFilter);
+  }
   const Eigen::Vector3d source = roomToIndex * sourceInRoom;
   const std::vector<int>& order = pixels.Order();
   const long long traced = static_cast<long long>(order.size());
@@ -663,7 +838,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
     // Eight neighbours of a tile at a time (a tile's rows are 16 wide); the last packet is
     // filled up with copies of its last ray.
     const long long packetCount = (traced + RayPacket::Size - 1) / RayPacket::Size;
-    vtkSMPTools::For(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
+    ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
       [&](long long begin, long long end)
       {
         IndexRay rays[RayPacket::Size];
@@ -684,7 +859,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
       });
     return traced;
   }
-  vtkSMPTools::For(0LL, traced, static_cast<long long>(TileColumns * TileRows),
+  ParallelFor(0LL, traced, static_cast<long long>(TileColumns * TileRows),
     [&](long long begin, long long end)
     {
       for (long long n = begin; n < end; ++n)
@@ -699,6 +874,110 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   return traced;
 }
 
+long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
+  const std::vector<RenderTarget>& targets, const RayCastSettings& settings)
+{
+  for (const RenderTarget& target : targets)
+    if (!target.pixels || target.pixels->Columns() != target.grid.columns || target.pixels->Rows() != target.grid.rows)
+      throw Error("ray caster: a target's traced pixels are missing or of another panel size than its grid");
+  if (settings.device != ComputeDevice::CUDA || targets.size() < 2)
+  {
+    long long rays = 0;
+    for (const RenderTarget& target : targets)
+      rays += RenderLineIntegrals(volume, ctToRoom, target.source, target.grid, *target.pixels, target.lineIntegrals, settings);
+    return rays;
+  }
+  if (volume.Dimensions().minCoeff() < 1)
+    throw Error("ray caster: no volume");
+  if (settings.method != RayCastMethod::Trilinear || settings.stepSize > 0.0)
+    throw Error("ray caster: the GPU casts Joseph's scheme only (trilinear, one sample per voxel plane)");
+  const Eigen::Affine3d roomToIndex = (ctToRoom * volume.PaddedIndexToCT()).inverse();
+  return SharedGPU::Instance().Render(volume, roomToIndex, targets, settings.textureFilter);
+}
+
+joseph::Job JosephJob(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom, const Eigen::Vector3d& sourceInRoom,
+  const DetectorGrid& grid)
+{
+  return MakeJob((ctToRoom * volume.PaddedIndexToCT()).inverse(), sourceInRoom, grid);
+}
+
+ComputeDeviceChoice ChooseComputeDevice(const std::string& option)
+{
+  ComputeDeviceChoice choice;
+  if (option == "cpu")
+    return choice;
+  if (option != "cuda" && option != "auto")
+    throw InputError("--device", "must be auto, cpu or cuda, not '" + option + "'");
+  std::string reason;
+  bool usable = cuda::Available(&reason);
+  std::string name;
+  if (usable)
+  {
+    try
+    {
+      name = SharedGPU::Instance().DeviceName();
+    }
+    catch (const Error& error)
+    {
+      usable = false;
+      reason = error.what();
+    }
+  }
+  if (!usable)
+  {
+    if (option == "cuda")
+      throw InputError("--device", "cuda: " + reason);
+    choice.note = "no GPU used: " + reason + "; the rays are cast on the CPU";
+    return choice;
+  }
+  choice.device = ComputeDevice::CUDA;
+  choice.description = "cuda (" + name + ")";
+  return choice;
+}
+
+GPUMutualInformation::GPUMutualInformation(const AttenuationVolume& volume, std::vector<View> views, int bins)
+  : Volume(volume)
+  , VolumeOwner(volume.Storage())
+  , Items(std::move(views))
+{
+  for (const View& view : this->Items)
+  {
+    if (!view.pixels)
+      throw Error("GPU metric: a view without its pixels");
+    this->PixelOwners.push_back(view.pixels->Storage());
+    this->Handles.push_back(
+      SharedGPU::Instance().AddMetricView(*view.pixels, view.xrayBins, bins, view.low, view.toCell, view.cellBins));
+  }
+}
+
+GPUMutualInformation::~GPUMutualInformation()
+{
+  for (int handle : this->Handles)
+    SharedGPU::Instance().Release(handle);
+}
+
+long long GPUMutualInformation::Evaluate(const std::vector<Eigen::Isometry3d>& ctToRoom, std::vector<double>& mi)
+{
+  std::vector<joseph::Job> jobs;
+  std::vector<int> handles;
+  for (const Eigen::Isometry3d& pose : ctToRoom)
+  {
+    const Eigen::Affine3d roomToIndex = (pose * this->Volume.PaddedIndexToCT()).inverse();
+    for (size_t v = 0; v < this->Items.size(); ++v)
+    {
+      jobs.push_back(MakeJob(roomToIndex, this->Items[v].source, this->Items[v].grid));
+      handles.push_back(this->Handles[v]);
+    }
+  }
+  mi.assign(jobs.size(), 0.0);
+  return SharedGPU::Instance().MutualInformation(this->Volume, jobs, handles, mi.data());
+}
+
+std::string ComputeDeviceDescription(ComputeDevice device)
+{
+  return device == ComputeDevice::CUDA ? "cuda (" + SharedGPU::Instance().DeviceName() + ")" : "cpu";
+}
+
 bool HasVectorRayCaster()
 {
   return HaveAVX2;
@@ -707,7 +986,7 @@ bool HasVectorRayCaster()
 void LineIntegralsTo12Bit(const float* lineIntegrals, const uint8_t* mask, long long count, uint16_t* transmission)
 {
   // Once per DRR of every evaluation: on all threads, as the rays were (one exp a pixel).
-  vtkSMPTools::For(0LL, count,
+  ParallelFor(0LL, count,
     [&](long long begin, long long end)
     {
       for (long long i = begin; i < end; ++i)

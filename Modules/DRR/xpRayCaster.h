@@ -13,8 +13,12 @@
 
 #include "vtkXPDRRModule.h"
 
+#include "xpJosephRay.h"
+
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
+#include <string>
 #include <vector>
 
 namespace xp
@@ -43,6 +47,33 @@ enum class RayCastMethod
   Siddon     ///< exact integral through piecewise-constant voxels (reference, slower)
 };
 
+/** Where the rays are cast. */
+enum class ComputeDevice
+{
+  CPU, ///< all cores of this machine (vtkSMPTools)
+  CUDA ///< the first NVIDIA GPU (xpCudaRayCaster.h): Joseph's scheme, the same samples in float
+};
+
+/** The device that `--device auto|cpu|cuda` names, and what to tell the user. */
+struct ComputeDeviceChoice
+{
+  ComputeDevice device = ComputeDevice::CPU;
+  /** "cpu", or "cuda (" the GPU's name ")": result.json's `device`. */
+  std::string description = "cpu";
+  /** With auto on a machine without a usable GPU: why it runs on the CPU; else empty. */
+  std::string note;
+};
+
+/**
+ * Resolves `--device`: "cpu"; "cuda", refused (InputError naming --device, with the reason) where
+ * this build has no CUDA or no GPU can run it; "auto", the GPU where one is usable, else the CPU
+ * with a note saying why. Any other word is refused.
+ */
+VTKXPDRR_EXPORT ComputeDeviceChoice ChooseComputeDevice(const std::string& option);
+
+/** "cpu", or "cuda (" the GPU's name ")" (starts the GPU's context when first asked). */
+VTKXPDRR_EXPORT std::string ComputeDeviceDescription(ComputeDevice device);
+
 struct VTKXPDRR_EXPORT RayCastSettings
 {
   RayCastMethod method = RayCastMethod::Trilinear;
@@ -58,6 +89,12 @@ struct VTKXPDRR_EXPORT RayCastSettings
    * path is tested against. Both give the same samples; sums differ by float rounding only.
    */
   bool vectorized = true;
+  /** CUDA: Joseph's scheme only (method Trilinear, stepSize 0); volumes and pixel lists stay on
+   *  the GPU between calls while the caller keeps them. */
+  ComputeDevice device = ComputeDevice::CPU;
+  /** CUDA: sample through the texture unit's trilinear filter (8-bit weights) instead of reading
+   *  four voxels and weighting them in float. */
+  bool textureFilter = false;
 };
 
 /** Whether this CPU runs the vectorised ray caster (AVX2 and FMA). */
@@ -81,12 +118,14 @@ public:
   int Columns() const { return this->PanelColumns; }
   int Rows() const { return this->PanelRows; }
   /** Pixel indices (row * Columns() + column), each below Columns() * Rows(). */
-  const std::vector<int>& Order() const { return this->Pixels; }
+  const std::vector<int>& Order() const { return *this->Pixels; }
+  /** The list's owner, shared by copies: a GPU keeps its copy of the list while this lives. */
+  std::shared_ptr<const void> Storage() const { return this->Pixels; }
 
 private:
   int PanelColumns = 0;
   int PanelRows = 0;
-  std::vector<int> Pixels;
+  std::shared_ptr<const std::vector<int>> Pixels;
 };
 
 /**
@@ -103,6 +142,65 @@ VTKXPDRR_EXPORT long long RenderLineIntegrals(const AttenuationVolume& volume, c
 VTKXPDRR_EXPORT long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
   const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid, const TracedPixels& pixels, float* lineIntegrals,
   const RayCastSettings& settings = {});
+
+/** A DRR's rays as the GPU casts them (xpJosephRay.h): the grid and the source in the padded
+ *  voxel-index space of `volume` placed at `ctToRoom`, and the rays' lengths in Room mm. */
+VTKXPDRR_EXPORT joseph::Job JosephJob(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
+  const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid);
+
+/** One DRR of several rendered at one placement of the volume (RenderLineIntegrals below). */
+struct RenderTarget
+{
+  Eigen::Vector3d source;                ///< Room mm
+  DetectorGrid grid;
+  const TracedPixels* pixels = nullptr;  ///< built for the grid's size
+  float* lineIntegrals = nullptr;        ///< the traced pixels' integrals; others left as they are
+};
+
+/** The DRRs of several views at one placement: on the GPU in one launch, on the CPU one after
+ *  the other on all threads. Returns the rays cast. */
+VTKXPDRR_EXPORT long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
+  const std::vector<RenderTarget>& targets, const RayCastSettings& settings = {});
+
+/**
+ * Mutual information of DRRs against X-rays, computed on the GPU where the rays are cast, so that
+ * an evaluation sends a pose and gets one number per view back. Each view's DRR is binned by a
+ * fixed map of line integral to bin (a LevelTable's ranks as bins: cell = (integral - low) *
+ * toCell, truncated and clamped to cellBins, bin = cellBins[cell]) and counted against its
+ * X-ray's bin (xrayBins, one per traced pixel in the list's order) over the traced pixels; MI is
+ * JointHistogram's (xpMutualInformation.h). The volume and the pixel lists must outlive this.
+ */
+class VTKXPDRR_EXPORT GPUMutualInformation
+{
+public:
+  struct View
+  {
+    Eigen::Vector3d source;            ///< Room mm
+    DetectorGrid grid;                 ///< the rays' grid (the panel)
+    const TracedPixels* pixels = nullptr; ///< the pixels that count, each cast
+    std::vector<uint8_t> xrayBins;
+    double low = 0.0, toCell = 1.0;
+    std::vector<uint8_t> cellBins;
+  };
+
+  /** Uploads the views' bins (the volume and pixels, where not yet there); throws xp::Error
+   *  where no GPU is usable. */
+  GPUMutualInformation(const AttenuationVolume& volume, std::vector<View> views, int bins);
+  ~GPUMutualInformation();
+  GPUMutualInformation(const GPUMutualInformation&) = delete;
+  GPUMutualInformation& operator=(const GPUMutualInformation&) = delete;
+
+  /** MI (nats) of every view at every placement (CT -> Room), in one launch: mi[p * views + v].
+   *  Returns the rays cast. */
+  long long Evaluate(const std::vector<Eigen::Isometry3d>& ctToRoom, std::vector<double>& mi);
+
+private:
+  const AttenuationVolume& Volume;
+  std::shared_ptr<const void> VolumeOwner;
+  std::vector<std::shared_ptr<const void>> PixelOwners;
+  std::vector<View> Items;
+  std::vector<int> Handles;
+};
 
 /** 12-bit transmission round(4095 * exp(-integral)); 0 where the mask is zero. */
 VTKXPDRR_EXPORT void LineIntegralsTo12Bit(

@@ -16,12 +16,12 @@ void LevelTable::Build(const float* values, const uint8_t* mask, long long count
   std::sort(sorted.begin(), sorted.end());
   const double low = sorted.empty() ? 0.0 : sorted.front(), high = sorted.empty() ? 1.0 : sorted.back();
   const double margin = std::max(0.2 * (high - low), 1e-6);
-  this->Low = low - margin;
-  this->ToCell = RankLevels / (high - low + 2.0 * margin);
+  this->LowValue = low - margin;
+  this->CellsPerValue = RankLevels / (high - low + 2.0 * margin);
   this->Table.resize(RankLevels);
   for (int c = 0; c < RankLevels; ++c)
   {
-    const float middle = static_cast<float>(this->Low + (c + 0.5) / this->ToCell);
+    const float middle = static_cast<float>(this->LowValue + (c + 0.5) / this->CellsPerValue);
     const size_t below = std::lower_bound(sorted.begin(), sorted.end(), middle) - sorted.begin();
     this->Table[c] = static_cast<uint16_t>(sorted.empty() ? 0 : (RankLevels - 1) * static_cast<double>(below) / sorted.size());
   }

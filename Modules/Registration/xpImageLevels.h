@@ -35,14 +35,19 @@ public:
    *  (20 % wider than the reference's on each side: later poses may see a little more). */
   uint16_t operator()(float value) const
   {
-    long long cell = static_cast<long long>((value - this->Low) * this->ToCell);
+    long long cell = static_cast<long long>((value - this->LowValue) * this->CellsPerValue);
     cell = cell < 0 ? 0 : (cell >= RankLevels ? RankLevels - 1 : cell);
     return this->Table[static_cast<size_t>(cell)];
   }
+  /** The map as data (for a GPU that applies it): cell = (value - Low()) * ToCell(), truncated
+   *  and clamped to the table; level = Levels()[cell]. */
+  double Low() const { return this->LowValue; }
+  double ToCell() const { return this->CellsPerValue; }
+  const std::vector<uint16_t>& Levels() const { return this->Table; }
 
 private:
-  double Low = 0.0;
-  double ToCell = 1.0;
+  double LowValue = 0.0;
+  double CellsPerValue = 1.0;
   std::vector<uint16_t> Table;
 };
 

@@ -186,6 +186,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.objective = result.objective;
   record.failures = result.failures;
   record.drrCount = result.drrCount;
+  record.device = result.device;
   record.searchRenderStride = result.searchRenderStride;
   record.fineRenderStride = result.fineRenderStride;
   record.evaluations = result.evaluations;
@@ -239,6 +240,7 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     faces["left_out_last_slice"] = (r.endFaces[v].facesToLeaveOut & LastSliceFace) != 0;
   }
   root["drr_count"] = static_cast<Json::Int64>(r.drrCount);
+  root["device"] = r.device;
   for (const auto& [name, stride] : { std::make_pair("search", r.searchRenderStride), std::make_pair("fine", r.fineRenderStride) })
   {
     root["render_strides"][name]["columns"] = stride.columns;
@@ -417,6 +419,8 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
       r.endFaces.push_back(faces);
     }
   r.drrCount = static_cast<long long>(f.Number("drr_count"));
+  if (f.Has("device")) // absent in records written before the GPU ray caster: those ran on the CPU
+    r.device = f.Text("device");
   if (f.Has("render_strides")) // absent in records written before the strides
   {
     // A stride the registration could not have used (SetRenderStride takes 1 to 8) marks a damaged record.

@@ -53,6 +53,7 @@ struct RegistrationRecord
   double objective = 0.0;
   std::vector<GateFailure> failures;
   long long drrCount = 0;
+  std::string device = "cpu"; ///< where the rays were cast: "cpu" or "cuda (GPU name)"
   RenderStride searchRenderStride, fineRenderStride; ///< rays cast on every N-th pixel of rows and columns (StereoSimilarity::SetRenderStride)
   int evaluations = 0;
   double readSeconds = 0.0, prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;

@@ -161,13 +161,15 @@ double UncoveredFraction(const std::vector<uint16_t>& xray, const std::vector<ui
 /** ANDs into each view's mask the shadow of the volume at `ctToRoom` (rays with any
  *  attenuation), widened by `marginMM` on the panel. */
 void AndShadow(std::vector<RegistrationView>& views, const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
-  double marginMM)
+  double marginMM, ComputeDevice device)
 {
   for (RegistrationView& item : views)
   {
     const int columns = item.view.Columns(), rows = item.view.Rows();
     std::vector<float> integrals(static_cast<size_t>(columns) * rows, 0.0f);
-    RenderLineIntegrals(volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view), nullptr, integrals.data());
+    RayCastSettings rayCast;
+    rayCast.device = device;
+    RenderLineIntegrals(volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view), nullptr, integrals.data(), rayCast);
     std::vector<uint8_t> shadow(integrals.size());
     for (size_t i = 0; i < shadow.size(); ++i)
       shadow[i] = integrals[i] > 0.0f;
@@ -184,9 +186,9 @@ void AndShadow(std::vector<RegistrationView>& views, const AttenuationVolume& vo
 /** AndShadow, then the pixels within the same margin of the shadow of the bone's cut faces left out
  *  (xpBoneCut.h): there the X-ray shows the bone running on where its DRR ends. */
 void AndShadowLessCuts(std::vector<RegistrationView>& views, const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
-  double marginMM, const std::vector<Eigen::Vector3d>& cutPoints)
+  double marginMM, const std::vector<Eigen::Vector3d>& cutPoints, ComputeDevice device)
 {
-  AndShadow(views, volume, ctToRoom, marginMM);
+  AndShadow(views, volume, ctToRoom, marginMM, device);
   for (RegistrationView& item : views)
   {
     LeaveOutAroundPoints(item.mask, item.view, cutPoints, ctToRoom, marginMM);
@@ -651,13 +653,14 @@ double CorrelationWithDRR(const std::vector<uint16_t>& xray, const std::vector<u
  */
 WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const Pose& start, bool pyramid,
-  StereoRegistrationResult& result)
+  ComputeDevice device, StereoRegistrationResult& result)
 {
   WorkingXRays working;
   working.ranked = views;
   for (RegistrationView& item : working.ranked)
     item.xray = EqualizedLevels(item.xray, item.mask);
   StereoSimilarity probe(volume, plannedCTToRoom, isocenter, AtCoarseSize(working.ranked, pyramid), 32, { false, 0.0 });
+  probe.SetDevice(device);
   probe.Evaluate(start);
   result.drrCount += probe.RenderedDRRs();
   for (size_t v = 0; v < working.ranked.size(); ++v)
@@ -764,6 +767,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   }
   ValidateGateLimits(requested);
   StereoRegistrationResult result;
+  result.device = ComputeDeviceDescription(requested.device);
   result.boneOnly = requested.detectBoneOnly && OuterSurfaceIsBone(volume);
   // A bone turns about its own centre: about an isocentre some centimetres away, each turn would
   // also move it, and the optimiser's steps and the landscape's probes would mix the two. Poses
@@ -803,12 +807,12 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   {
     shadowed = inputViews;
     AndShadowLessCuts(shadowed, coarseVolume, MisalignedCTToRoom(plannedCTToRoom, settings.initialPose, isocenter),
-      settings.boneShadowSearchMarginMM, cutPoints);
+      settings.boneShadowSearchMarginMM, cutPoints, settings.device);
   }
   const std::vector<RegistrationView>& startViews = result.boneOnly ? shadowed : inputViews;
   WorkingXRays working;
   if (settings.rankedXRays)
-    working = RankedXRays(startViews, coarseVolume, plannedCTToRoom, isocenter, settings.initialPose, pyramid, result);
+    working = RankedXRays(startViews, coarseVolume, plannedCTToRoom, isocenter, settings.initialPose, pyramid, settings.device, result);
   else
   {
     working.ranked = startViews;
@@ -819,6 +823,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   const std::vector<RegistrationView>& views = working.ranked;
   const std::vector<RegistrationView> coarseViews = AtCoarseSize(views, pyramid);
   StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins, { settings.equalizedLevels, 0.0 });
+  coarse.SetDevice(settings.device);
   coarse.SetCostSink(&cost);
   // A bone's start is already near (a given pose, the previous frame's, or the global search's,
   // refined on both views at once): the 2D/2D steps, each view alone in a field of other bones,
@@ -862,6 +867,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
     StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins,
       { settings.equalizedLevels, 0.0, correlationMM });
+    searchSimilarity.SetDevice(settings.device);
     result.searchRenderStride = settings.searchRenderStride > 0
       ? RenderStride{ settings.searchRenderStride, settings.searchRenderStride }
       : RenderStrideFor(coarseVolume, coarseSearch, plannedCTToRoom, isocenter);
@@ -872,6 +878,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     {
       quarter = std::make_unique<StereoSimilarity>(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(coarseSearch, true),
         settings.bins, SimilarityLevels{ settings.equalizedLevels, 0.0, correlationMM });
+      quarter->SetDevice(settings.device);
       quarter->SetCostSink(&cost);
     }
     searchEnds =
@@ -897,9 +904,10 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   }
   if (result.boneOnly)
     AndShadowLessCuts(masked, volume, MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter),
-      settings.boneShadowFineMarginMM, cutPoints);
+      settings.boneShadowFineMarginMM, cutPoints, settings.device);
   StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
     { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
+  fine.SetDevice(settings.device);
   result.fineRenderStride = settings.fineRenderStride > 0 ? RenderStride{ settings.fineRenderStride, settings.fineRenderStride }
                                                           : RenderStrideFor(volume, masked, plannedCTToRoom, isocenter);
   fine.SetRenderStride(result.fineRenderStride);
@@ -1003,11 +1011,12 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     // heel effect and scatter, a couch. Beyond the outline's margin that is no evidence about
     // the pose, and it flattened the peak of a rounded head along roll (Algorithms.md).
     if (result.boneOnly)
-      AndShadowLessCuts(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM, cutPoints);
+      AndShadowLessCuts(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM, cutPoints, settings.device);
     else
-      AndShadow(wholeViews, volume, resultCTToRoom, settings.heldOutShadowMarginMM);
+      AndShadow(wholeViews, volume, resultCTToRoom, settings.heldOutShadowMarginMM, settings.device);
     StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
       { settings.equalizedLevels, settings.heldOutHighPassMM, correlationMM });
+    heldOut.SetDevice(settings.device);
     heldOut.SetCostSink(&cost);
     MeasureLandscape(countedObjective, heldOut, fineResult.pose,
       fineResult.value, settings, result);
@@ -1016,6 +1025,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
     for (size_t v = 0; v < wholeViews.size(); ++v)
       wholeViews[v].xray = unsmoothedViews[v].xray;
     StereoSimilarity atFullSize(volume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { true, 0.0 });
+    atFullSize.SetDevice(settings.device);
     atFullSize.SetCostSink(&cost);
     MeasureEdges(atFullSize, fineResult.pose, isocenter, result);
     result.drrCount += atFullSize.RenderedDRRs();

@@ -65,6 +65,8 @@ struct StereoRegistrationSettings
    *  isocentre); the gate's maxTranslation and maxRotation bound the change from it. */
   Pose initialPose;
   int bins = 32;                 ///< MI histogram bins
+  /** Where the DRRs' rays are cast: every stage's similarity and shadow (xpRayCaster.h). */
+  ComputeDevice device = ComputeDevice::CPU;
   /** MI on equalised levels (xpStereoSimilarity.h); false: on 12-bit transmission as it is. */
   bool equalizedLevels = true;
   /** The full-resolution refinement removes shading wider than this (mm on the panel) from
@@ -194,6 +196,7 @@ struct RegistrationStage
 struct StereoRegistrationResult
 {
   bool ok = false;
+  std::string device = "cpu"; ///< where the rays were cast: ComputeDeviceDescription
   std::vector<GateFailure> failures; ///< why the gate failed (xpQualityGate.h); empty when ok
   std::vector<std::string> Reasons() const; ///< the failures' messages
   Pose start;        ///< the settings' initial pose, where the search began

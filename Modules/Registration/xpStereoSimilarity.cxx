@@ -2,6 +2,7 @@
 
 #include "xpError.h"
 #include "xpImageLevels.h"
+#include "xpParallel.h"
 
 #include <vtkSMPTools.h>
 
@@ -126,6 +127,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
 
 const std::vector<uint16_t>& StereoSimilarity::LastDRR(size_t v) const
 {
+  this->FetchLastDRRs();
   if (!this->DRRCurrent[v])
   {
     const RegistrationView& item = this->Items[v];
@@ -136,17 +138,98 @@ const std::vector<uint16_t>& StereoSimilarity::LastDRR(size_t v) const
   return this->DRRs[v];
 }
 
+const std::vector<uint16_t>& StereoSimilarity::LastDRRLevels(size_t v) const
+{
+  if (!this->Equalize)
+    return this->LastDRR(v);
+  this->FetchLastDRRs();
+  return this->DRRRanks[v];
+}
+
+void StereoSimilarity::SetDevice(ComputeDevice device)
+{
+  this->RayCast.device = device;
+  this->GPUMetric.reset();
+  this->FetchLastDRRs();
+}
+
+bool StereoSimilarity::MeasuresOnGPU() const
+{
+  return this->RayCast.device == ComputeDevice::CUDA && this->Equalize && this->HighPassMM <= 0.0 && this->CorrelationMM <= 0.0 &&
+    this->Stride == RenderStride{} && this->Histograms.front().Bins() <= 64;
+}
+
+void StereoSimilarity::SetUpGPUMetric()
+{
+  std::vector<GPUMutualInformation::View> views;
+  for (size_t v = 0; v < this->Items.size(); ++v)
+  {
+    // The histogram's bins of a level (JointHistogram: level * bins / 4096), for both images.
+    const int bins = this->Histograms[v].Bins();
+    const auto binOf = [bins](uint16_t level) { return static_cast<uint8_t>(static_cast<long long>(level) * bins / RankLevels); };
+    GPUMutualInformation::View view;
+    view.source = this->Items[v].view.source;
+    view.grid = this->Grids[v];
+    view.pixels = &this->Traced[v];
+    for (int pixel : this->Traced[v].Order())
+      view.xrayBins.push_back(binOf(this->XRayRanks[v][static_cast<size_t>(pixel)]));
+    const LevelTable& levels = this->IntegralLevels[v];
+    view.low = levels.Low();
+    view.toCell = levels.ToCell();
+    for (uint16_t level : levels.Levels())
+      view.cellBins.push_back(binOf(level));
+    views.push_back(std::move(view));
+  }
+  this->GPUMetric = std::make_unique<GPUMutualInformation>(this->Volume, std::move(views), this->Histograms.front().Bins());
+}
+
+void StereoSimilarity::FetchLastDRRs() const
+{
+  if (this->HostCurrent)
+    return;
+  this->Render(this->LastPose);
+  for (size_t v = 0; v < this->Items.size(); ++v)
+  {
+    const uint8_t* mask = this->Items[v].mask.empty() ? nullptr : this->Items[v].mask.data();
+    const std::vector<float>& integral = this->Integrals[v];
+    std::vector<uint16_t>& ranks = this->DRRRanks[v];
+    for (size_t i = 0; i < integral.size(); ++i)
+      ranks[i] = (mask && !mask[i]) ? 0 : this->IntegralLevels[v](integral[i]);
+    this->DRRCurrent[v] = false;
+  }
+  this->HostCurrent = true;
+}
+
 double StereoSimilarity::Evaluate(const Pose& misalignment)
 {
   const Eigen::Isometry3d ctToRoom = MisalignedCTToRoom(this->Planned, misalignment, this->Isocenter);
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
-  long long rays = 0;
-  for (size_t v = 0; v < this->Items.size(); ++v) // each DRR on every thread
+  if (this->GPUMetric)
   {
-    rays += this->Render(v, ctToRoom);
-    this->DRRCurrent[v] = false;
+    // Rays, histograms and MI on the GPU: the views' MI come back, nothing else.
+    std::vector<double> mi;
+    const long long rays = this->GPUMetric->Evaluate({ ctToRoom }, mi);
+    this->LastMI = mi;
+    this->LastPose = ctToRoom;
+    this->HostCurrent = false;
+    double objective = 0.0;
+    for (double value : mi)
+      objective += value * value;
+    this->DRRCount += static_cast<long long>(this->Items.size());
+    if (this->CostSink)
+    {
+      this->CostSink->drrs += static_cast<long long>(this->Items.size());
+      this->CostSink->rays += rays;
+      this->CostSink->renderSeconds += std::chrono::duration<double>(Clock::now() - start).count();
+    }
+    return objective;
   }
+  this->FetchLastDRRs(); // (a GPU metric given up by SetDevice leaves nothing behind)
+  this->LastPose = ctToRoom;
+  const long long rays = this->Render(ctToRoom); // each DRR on every thread, or the views in one launch on the GPU
+  for (size_t v = 0; v < this->Items.size(); ++v)
+    this->DRRCurrent[v] = false;
   const Clock::time_point rendered = Clock::now();
   // The views' metrics read and write only their own buffers: one thread each.
   vtkSMPTools::For(size_t{ 0 }, this->Items.size(), size_t{ 1 },
@@ -159,6 +242,8 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
   for (size_t v = 0; v < this->Items.size(); ++v)
     objective += this->CorrelationMM > 0.0 ? this->LastNCC[v] : this->LastMI[v] * this->LastMI[v];
   this->DRRCount += static_cast<long long>(this->Items.size());
+  if (this->MeasuresOnGPU()) // the levels are fixed now: the next evaluations measure on the GPU
+    this->SetUpGPUMetric();
   if (this->CostSink)
   {
     const Clock::time_point measured = Clock::now();
@@ -189,6 +274,8 @@ void StereoSimilarity::SetRenderStride(const RenderStride& stride)
     if (step < 1 || step > 8)
       throw InputError("render stride", "must be 1 to 8, not " + std::to_string(step));
   this->Stride = stride;
+  this->GPUMetric.reset(); // its pixel lists are the old stride's
+  this->FetchLastDRRs();
   this->Grids.clear();
   this->Traced.clear();
   this->NodeIntegrals.clear();
@@ -226,36 +313,49 @@ void StereoSimilarity::SetRenderStride(const RenderStride& stride)
   }
 }
 
-long long StereoSimilarity::Render(size_t v, const Eigen::Isometry3d& ctToRoom)
+long long StereoSimilarity::Render(const Eigen::Isometry3d& ctToRoom) const
 {
-  const RegistrationView& item = this->Items[v];
-  if (this->Stride == RenderStride{})
-    return RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, this->Grids[v], this->Traced[v], this->Integrals[v].data());
-  const DetectorGrid& grid = this->Grids[v];
-  const long long rays =
-    RenderLineIntegrals(this->Volume, ctToRoom, item.view.source, grid, this->Traced[v], this->NodeIntegrals[v].data());
-  const float* nodes = this->NodeIntegrals[v].data();
-  float* out = this->Integrals[v].data();
-  const int columns = item.view.Columns(), rows = item.view.Rows(), sc = this->Stride.columns, sr = this->Stride.rows;
+  const bool strided = !(this->Stride == RenderStride{});
+  std::vector<RenderTarget> targets;
+  for (size_t v = 0; v < this->Items.size(); ++v)
+    targets.push_back(RenderTarget{ this->Items[v].view.source, this->Grids[v], &this->Traced[v],
+      strided ? this->NodeIntegrals[v].data() : this->Integrals[v].data() });
+  const long long rays = RenderLineIntegrals(this->Volume, ctToRoom, targets, this->RayCast);
+  if (!strided)
+    return rays;
+  // The pixels between the nodes, bilinear; rows on all threads.
+  const int sc = this->Stride.columns, sr = this->Stride.rows;
   const float columnStep = 1.0f / static_cast<float>(sc), rowStep = 1.0f / static_cast<float>(sr);
-  for (int r = 0; r < rows; ++r)
+  for (size_t v = 0; v < this->Items.size(); ++v)
   {
-    const int r0 = r / sr, dr = r % sr;
-    const float fr = dr * rowStep;
-    const float* row0 = nodes + static_cast<size_t>(r0) * grid.columns;
-    const float* row1 = dr ? row0 + grid.columns : row0;
-    for (int c = 0; c < columns; ++c)
-    {
-      const size_t i = static_cast<size_t>(r) * columns + c;
-      if (!item.mask.empty() && !item.mask[i])
-        continue;
-      const int c0 = c / sc, dc = c % sc;
-      const int c1 = dc ? c0 + 1 : c0;
-      const float fc = dc * columnStep;
-      const float top = row0[c0] + fc * (row0[c1] - row0[c0]);
-      const float bottom = row1[c0] + fc * (row1[c1] - row1[c0]);
-      out[i] = top + fr * (bottom - top);
-    }
+    const RegistrationView& item = this->Items[v];
+    const DetectorGrid& grid = this->Grids[v];
+    const float* nodes = this->NodeIntegrals[v].data();
+    float* out = this->Integrals[v].data();
+    const int columns = item.view.Columns();
+    ParallelFor(0, item.view.Rows(), 16,
+      [&](int firstRow, int lastRow)
+      {
+        for (int r = firstRow; r < lastRow; ++r)
+        {
+          const int r0 = r / sr, dr = r % sr;
+          const float fr = dr * rowStep;
+          const float* row0 = nodes + static_cast<size_t>(r0) * grid.columns;
+          const float* row1 = dr ? row0 + grid.columns : row0;
+          for (int c = 0; c < columns; ++c)
+          {
+            const size_t i = static_cast<size_t>(r) * columns + c;
+            if (!item.mask.empty() && !item.mask[i])
+              continue;
+            const int c0 = c / sc, dc = c % sc;
+            const int c1 = dc ? c0 + 1 : c0;
+            const float fc = dc * columnStep;
+            const float top = row0[c0] + fc * (row0[c1] - row0[c0]);
+            const float bottom = row1[c0] + fc * (row1[c1] - row1[c0]);
+            out[i] = top + fr * (bottom - top);
+          }
+        }
+      });
   }
   return rays;
 }

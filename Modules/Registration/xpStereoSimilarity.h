@@ -22,6 +22,7 @@
 #include "xpRayCaster.h"
 #include "xpXRayView.h"
 
+#include <memory>
 #include <vector>
 
 namespace xp
@@ -120,7 +121,7 @@ public:
   const std::vector<uint16_t>& LastDRR(size_t v) const;
   /** The images as MI sees them: equalised levels, or the X-ray and the DRR as they are. */
   const std::vector<uint16_t>& XRayLevels(size_t v) const { return this->Equalize ? this->XRayRanks[v] : this->Items[v].xray; }
-  const std::vector<uint16_t>& LastDRRLevels(size_t v) const { return this->Equalize ? this->DRRRanks[v] : this->LastDRR(v); }
+  const std::vector<uint16_t>& LastDRRLevels(size_t v) const;
   long long RenderedDRRs() const { return this->DRRCount; }
   /**
    * Render the DRR's rays on every `stride.columns`-th pixel of each row and on every
@@ -132,13 +133,28 @@ public:
   void SetRenderStride(const RenderStride& stride);
   /** The same stride along rows and columns. */
   void SetRenderStride(int stride) { this->SetRenderStride(RenderStride{ stride, stride }); }
+  /**
+   * Where the DRRs' rays are cast (CPU by default; xpRayCaster.h). On the GPU, an objective of
+   * MI on equalised levels without a high-pass and with every ray cast is measured there too,
+   * from the second evaluation on (the first fixes the DRR's levels): the evaluation sends the
+   * pose and gets the views' MI back, and the last DRRs are rendered again only when asked for.
+   */
+  void SetDevice(ComputeDevice device);
+  ComputeDevice Device() const { return this->RayCast.device; }
   /** Every later evaluation also adds its cost to `sink` (null: none); it must outlive this. */
   void SetCostSink(SimilarityCost* sink) { this->CostSink = sink; }
   const std::vector<RegistrationView>& Views() const { return this->Items; }
 
 private:
-  /** Line integrals of view v at the pose, into Integrals[v]; returns the rays cast. */
-  long long Render(size_t v, const Eigen::Isometry3d& ctToRoom);
+  /** Line integrals of every view at the pose, into Integrals (on the GPU in one launch);
+   *  returns the rays cast. */
+  long long Render(const Eigen::Isometry3d& ctToRoom) const;
+  /** Whether the objective can be measured on the GPU (SetDevice), and its set-up there once
+   *  the levels are fixed. */
+  bool MeasuresOnGPU() const;
+  void SetUpGPUMetric();
+  /** After a GPU evaluation: the last pose's DRRs and levels on the host, for those who ask. */
+  void FetchLastDRRs() const;
   /** Levels, histogram, MI (and correlation) of view v's last DRR against its X-ray. */
   void Measure(size_t v);
   /** The last DRR's line integrals of view v as levels. */
@@ -151,14 +167,15 @@ private:
   Eigen::Vector3d Isocenter;
   std::vector<RegistrationView> Items;
   std::vector<JointHistogram> Histograms; ///< per view: the views' metrics run side by side
-  std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
+  mutable std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
   RenderStride Stride;
+  RayCastSettings RayCast;
   /** Per view, built once per stride (the mask is fixed): where the rays are cast (the panel, or
    *  every stride-th pixel's node), which of them (the valid pixels, or the nodes their
    *  interpolation reads), and, with a stride, the nodes' line integrals. */
   std::vector<DetectorGrid> Grids;
   std::vector<TracedPixels> Traced;
-  std::vector<std::vector<float>> NodeIntegrals;
+  mutable std::vector<std::vector<float>> NodeIntegrals;
   /** With equalised levels MI never reads the 12-bit DRRs: they are converted when asked for, not
    *  at every evaluation. */
   mutable std::vector<std::vector<uint16_t>> DRRs;
@@ -166,7 +183,11 @@ private:
   bool Equalize = true;
   double HighPassMM = 0.0;
   std::vector<std::vector<uint16_t>> XRayRanks;
-  std::vector<std::vector<uint16_t>> DRRRanks;
+  mutable std::vector<std::vector<uint16_t>> DRRRanks;
+  /** The GPU's objective (SetDevice), and whether the host's DRRs are those of LastPose. */
+  std::unique_ptr<GPUMutualInformation> GPUMetric;
+  Eigen::Isometry3d LastPose = Eigen::Isometry3d::Identity();
+  mutable bool HostCurrent = true;
   /** Per view, set at the first pose: line integral -> level, and (high-pass) structure -> level. */
   std::vector<LevelTable> IntegralLevels;
   std::vector<LevelTable> StructureLevels;

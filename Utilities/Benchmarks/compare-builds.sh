@@ -27,6 +27,7 @@ work, runs = sys.argv[1], int(sys.argv[2])
 def load(name):
     r = json.load(open(f"{work}/{name}/result.json"))
     r.pop("timing_s", None); r.pop("inputs", None)
+    r.setdefault("device", "cpu")  # records written before the GPU path ran on the CPU
     for stage in r.get("convergence", {}).get("stages", []):
         stage.pop("seconds", None)
     return r

@@ -1,5 +1,6 @@
 // The subcommands end to end: phantom -> DICOM -> DRR files, exit codes, nothing half-written.
 #include "xpCommands.h"
+#include "xpCudaRayCaster.h"
 #include "xpProjectionMatrix.h"
 #include "xpRegistrationRecord.h"
 #include "xpDICOMSeries.h"
@@ -545,7 +546,41 @@ TEST(Commands, RegisterBadInputExitsWithTwo)
   options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
   options.optimizer = "nelder-mead/simplex";
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "optimiser";
+  options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
+  options.device = "gpu";
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "device";
   EXPECT_FALSE(Exists("cmd-reg-bad"));
+}
+
+// --device cuda where no GPU can run it is refused before any work, naming the option and why;
+// auto says that it runs on the CPU and does; result.json says where the rays were cast.
+TEST(Commands, DeviceOptionRefusesAMissingGPUAndRecordsWhereItRan)
+{
+  std::string reason;
+  if (xp::cuda::Available(&reason))
+    GTEST_SKIP() << "a GPU is present: cuda is not refused here";
+  ASSERT_EQ(std::system("rm -rf cmd-dev-sim cmd-dev cmd-dev-drr"), 0);
+  xp::DRROptions drr = SmallDRR("cmd-dev-drr");
+  drr.device = "cuda";
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitBadInput);
+  const std::string error = testing::internal::GetCapturedStderr();
+  EXPECT_NE(error.find("--device"), std::string::npos) << error;
+  EXPECT_NE(error.find(reason), std::string::npos) << error;
+  EXPECT_FALSE(Exists("cmd-dev-drr"));
+  const xp::SimulateOptions simulate = KVSimulation(PhantomCT(), "2,-1,1,0.5,0,0.5", 20.0, false, "cmd-dev-sim");
+  ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
+  xp::RegisterOptions options = RegisterSimulated("cmd-dev-sim", "cmd-dev");
+  options.device = "cuda";
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput);
+  EXPECT_FALSE(Exists("cmd-dev"));
+  options.device = "auto";
+  testing::internal::CaptureStdout();
+  const int code = xp::GuardedRun("register", [&] { return xp::RunRegister(options); });
+  const std::string console = testing::internal::GetCapturedStdout();
+  EXPECT_EQ(code, xp::ExitOk) << console;
+  EXPECT_NE(console.find("device: no GPU used: " + reason), std::string::npos) << console;
+  EXPECT_EQ(xp::ReadRegistrationRecord("cmd-dev/result.json").device, "cpu");
 }
 
 TEST(Commands, WithXRayOnlyObjectsTheMaskedRunIsAtLeastAsAccurate)
