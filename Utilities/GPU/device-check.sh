@@ -24,9 +24,28 @@ cmake -S Utilities/GPU -B /tmp/xpose-gpu-check -G Ninja -DEIGEN3_INCLUDE_DIR="$p
 cmake --build /tmp/xpose-gpu-check > /tmp/harness-build.log 2>&1 || { tail -30 /tmp/harness-build.log; exit 1; }
 /tmp/xpose-gpu-check/xpose-gpu-check --ct "$pack/pelvis.mhd" 2>&1 | tee "$out/harness.txt"
 
+step "harness under compute-sanitizer memcheck (analytic phantom, 128x96)"
+if command -v compute-sanitizer > /dev/null; then
+  timeout 300 compute-sanitizer --tool memcheck --error-exitcode 9 /tmp/xpose-gpu-check/xpose-gpu-check --size 128x96 \
+    --repetitions 3 > /tmp/memcheck.log 2>&1
+  echo "compute-sanitizer exit $? (0: no error found)"
+  grep -E "ERROR SUMMARY|Invalid|FAIL" /tmp/memcheck.log | head -5
+else
+  echo "compute-sanitizer: not on this machine"
+fi
+
 step "xpose's GPU tests"
 "$pack/bin/TestXPDRR" --gtest_filter='CudaRayCaster.*' 2>&1 | tail -12
 "$pack/bin/TestXPRegistration" --gtest_filter='*OnGPU*' 2>&1 | tail -12
+
+step "the README's phantom registered on both devices"
+"$pack/bin/xpose" phantom --out /tmp/demo/ct > /dev/null
+"$pack/bin/xpose" simulate --ct /tmp/demo/ct --geometry Data/geometry/stereo-oblique-90.json --pose 5,-3,2,1,-1,2 --noise 30 \
+  --kv-contrast --out-dir /tmp/demo/xray > /dev/null
+for device in cpu cuda; do
+  "$pack/bin/xpose" register --ct /tmp/demo/ct --geometry Data/geometry/stereo-oblique-90.json --xray /tmp/demo/xray/xray_A.png \
+    --xray /tmp/demo/xray/xray_B.png --size 512x384 --device $device --out-dir /tmp/demo/$device 2>&1 | grep -E "^device|^status|^misalignment|^DRRs"
+done
 
 step "registrations of the pelvis on both devices (simulate's clinical X-rays, 512x384)"
 geometry=Data/geometry/stereo-oblique-90.json
