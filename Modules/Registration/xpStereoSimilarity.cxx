@@ -185,6 +185,7 @@ void StereoSimilarity::SetUpGPUMetric()
 
 void StereoSimilarity::FetchLastDRRs() const
 {
+  std::lock_guard<std::mutex> lock(this->FetchMutex);
   if (this->HostCurrent)
     return;
   this->Render(this->LastPose);

@@ -23,6 +23,7 @@
 #include "xpXRayView.h"
 
 #include <memory>
+#include <mutex>
 #include <vector>
 
 namespace xp
@@ -153,7 +154,8 @@ private:
    *  the levels are fixed. */
   bool MeasuresOnGPU() const;
   void SetUpGPUMetric();
-  /** After a GPU evaluation: the last pose's DRRs and levels on the host, for those who ask. */
+  /** After a GPU evaluation: the last pose's DRRs and levels on the host, for those who ask
+   *  (once, whichever view's thread asks first). */
   void FetchLastDRRs() const;
   /** Levels, histogram, MI (and correlation) of view v's last DRR against its X-ray. */
   void Measure(size_t v);
@@ -188,6 +190,7 @@ private:
   std::unique_ptr<GPUMutualInformation> GPUMetric;
   Eigen::Isometry3d LastPose = Eigen::Isometry3d::Identity();
   mutable bool HostCurrent = true;
+  mutable std::mutex FetchMutex; ///< the views' checks ask for their DRRs from threads of their own
   /** Per view, set at the first pose: line integral -> level, and (high-pass) structure -> level. */
   std::vector<LevelTable> IntegralLevels;
   std::vector<LevelTable> StructureLevels;
