@@ -48,6 +48,7 @@ int vtkXPRegistrationSession::Run()
     // The settings `xpose register` takes when given no option but these.
     xp::StereoRegistrationSettings settings;
     settings.entropyMask = this->EntropyMask;
+    settings.device = xp::ChooseComputeDevice(this->Device).device;
     xp::SetOptimizers(this->Optimizer, settings, "optimizer");
     xp::CheckRegistrationSettings(settings);
     settings.initialPose = xp::Pose::FromParameters(this->InitialPose);

@@ -62,6 +62,9 @@ public:
   void SetOptimizer(const std::string& name) { this->Optimizer = name; }
   /** Entropy masks on (the default) or the whole images. */
   void SetEntropyMask(bool on) { this->EntropyMask = on; }
+  /** Where the rays are cast (--device): "cpu" (the default), "cuda" (refused by Run where no GPU
+   *  can run it) or "auto". */
+  void SetDevice(const std::string& device) { this->Device = device; }
 
   /**
    * Reads the inputs, registers, and keeps the result: 1 when it is ok (the couch may be moved by
@@ -94,6 +97,7 @@ private:
   double InitialPose[6] = { 0, 0, 0, 0, 0, 0 };
   std::string Optimizer = "nelder-mead";
   bool EntropyMask = true;
+  std::string Device = "cpu";
   std::unique_ptr<xp::RegistrationSession> Session;
   std::string LastError;
 };

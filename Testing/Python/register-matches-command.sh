@@ -53,6 +53,9 @@ refused.SetGeometryPath(geometry)
 refused.AddXRayPath(f"{work}/xray/xray_A.png")
 assert refused.Run() == -1 and "no-such-ct" in refused.GetLastError(), refused.GetLastError()
 assert refused.GetResultJSON() == "" and not refused.WriteResultFolder(f"{work}/refused")
+# A device that is no device is refused by name, before any file is read.
+refused.SetDevice("gpu")
+assert refused.Run() == -1 and "--device" in refused.GetLastError(), refused.GetLastError()
 
 def without_times(record):
     record.pop("timing_s")
