@@ -6,7 +6,6 @@
 #include "xpParallel.h"
 #include "xpXRayView.h"
 
-
 #include <immintrin.h>
 
 #include <algorithm>
@@ -583,7 +582,6 @@ double TraceSiddon(const AttenuationVolume& volume, const IndexRay& ray)
   return sum;
 }
 
-
 /** A DRR's rays in the volume's padded index space (xpJosephRay.h). */
 joseph::Job MakeJob(const Eigen::Affine3d& roomToIndex, const Eigen::Vector3d& sourceInRoom, const DetectorGrid& grid)
 {
@@ -622,7 +620,9 @@ public:
   std::string DeviceName()
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
-    return this->Context().DeviceName();
+    if (this->Name.empty())
+      this->Name = this->Context().DeviceName();
+    return this->Name;
   }
 
   /** The DRRs of `targets` in one launch; each target's traced pixels receive their integrals. */
@@ -743,6 +743,7 @@ private:
 
   std::mutex Mutex;
   std::unique_ptr<cuda::GPUContext> GPU;
+  std::string Name; ///< the GPU's, asked once (every registration records it)
   std::vector<Resident> Volumes, PixelLists;
   std::vector<float> Compact;
 };
