@@ -70,6 +70,20 @@ print(f"  {pose}: cpu {c['status']} {[round(x, 3) for x in a]}, cuda {g['status'
 PY
 done 2>&1 | tee "$out/registrations.txt"
 
+step "xpose drr on both devices (pelvis, 512x384, the filter's bottom-row-first grid)"
+for device in cpu cuda; do
+  "$pack/bin/xpose" drr --ct "$pack/pelvis.mhd" --geometry $geometry --size 512x384 --pose 3,-2,1,1,0.5,-1 --device $device \
+    --out-dir /tmp/drr-$device | grep -E "^device|rays in"
+done
+python3 - <<'PY'
+import numpy as np
+from PIL import Image
+for view in ("A", "B"):
+    a, b = (np.asarray(Image.open(f"/tmp/drr-{d}/drr_{view}.png")).astype(int) for d in ("cpu", "cuda"))
+    print(f"drr_{view}.png: {a.size} pixels, largest difference {np.abs(a - b).max()} of 4095 grey levels, "
+          f"{np.count_nonzero(a != b)} pixels differ")
+PY
+
 step "xpose bench drr --device cuda (pelvis)"
 "$pack/bin/xpose" bench drr --ct "$pack/pelvis.mhd" --geometry $geometry --methods trilinear --device cuda 2>&1 | tee "$out/bench-drr.txt"
 
