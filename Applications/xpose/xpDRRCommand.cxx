@@ -184,10 +184,18 @@ void RenderAndWriteViews(vtkXPDRRFilter* drr, const StereoGeometry& geometry,
 int RunDRR(const DRROptions& options)
 {
   UseThreads(options.threads);
-  if (options.device != "cpu" && (options.method == "siddon" || options.stepSize > 0.0))
+  // The GPU casts trilinear rays with one sample per voxel plane; Siddon and a fixed step run on the CPU.
+  const bool onePerPlane = options.method != "siddon" && options.stepSize <= 0.0;
+  ComputeDevice device = ComputeDevice::CPU;
+  if (onePerPlane)
+    device = UseDevice(options.device);
+  else if (options.device == "cuda")
     throw InputError("--device", "the GPU casts trilinear rays with one sample per voxel plane: use it without --method "
-                                 "siddon and --step, or with --device cpu");
-  const ComputeDevice device = UseDevice(options.device);
+                                 "siddon and --step, or with --device cpu or auto");
+  else if (options.device == "auto")
+    std::printf("device: --method siddon and --step cast on the CPU\n");
+  else
+    UseDevice(options.device); // cpu, or a word it refuses
   const Pose pose = Pose::Parse(options.pose, "--pose");
   std::pair<int, int> size{ 0, 0 };
   if (!options.size.empty())

@@ -29,8 +29,8 @@ void Check(cudaError_t status, const char* what)
 constexpr int RaysPerBlock = 128;
 constexpr int MaxBins = 64; // the joint histogram lives in shared memory: 64 x 64 counts, 16 KiB
 
-/** A padded volume as the kernels read it: plain global memory for the float interpolation, a
- *  texture of the same 16-bit steps for the hardware filter. */
+/** A padded volume as the kernels read it: plain global memory for the float interpolation, and a
+ *  texture of the same 16-bit steps for the hardware filter, made the first time it is asked for. */
 struct DeviceVolume
 {
   joseph::Grid grid{};
@@ -143,7 +143,7 @@ __global__ void HistogramKernel(const Launch* launches)
       atomicAdd(&launch.histogram[i], counts[i]);
 }
 
-/** sum of c ln c over a block's share of `values`, reduced in shared memory. */
+/** The sum of every thread's `value` over the block (blockDim.x a power of two), in shared memory. */
 __device__ double BlockSum(double value, double* scratch)
 {
   scratch[threadIdx.x] = value;
@@ -280,12 +280,40 @@ struct GPUContext::Resident
     stagingCapacity = needed;
   }
 
-  const DeviceVolume& Volume(int handle) const
+  DeviceVolume& Volume(int handle)
   {
     const auto found = volumes.find(handle);
     if (found == volumes.end())
       throw Error("CUDA ray caster", "no volume " + std::to_string(handle) + " on the GPU");
     return found->second;
+  }
+
+  /** The volume's texture (a 3D array of its 16-bit steps, read as fractions with the linear
+   *  filter), copied from its voxels on the GPU the first time the filter is asked for. */
+  static void EnsureTexture(DeviceVolume& volume)
+  {
+    if (volume.texture)
+      return;
+    const joseph::Grid& grid = volume.grid;
+    const cudaChannelFormatDesc format = cudaCreateChannelDesc<uint16_t>();
+    const cudaExtent extent = make_cudaExtent(grid.dims[0], grid.dims[1], grid.dims[2]);
+    Check(cudaMalloc3DArray(&volume.array, &format, extent), "allocating the volume's texture");
+    cudaMemcpy3DParms copy{};
+    copy.srcPtr = make_cudaPitchedPtr(volume.voxels, grid.dims[0] * sizeof(uint16_t), grid.dims[0], grid.dims[1]);
+    copy.dstArray = volume.array;
+    copy.extent = extent;
+    copy.kind = cudaMemcpyDeviceToDevice;
+    Check(cudaMemcpy3D(&copy), "copying the volume's texture");
+    cudaResourceDesc resource{};
+    resource.resType = cudaResourceTypeArray;
+    resource.res.array.array = volume.array;
+    cudaTextureDesc texture{};
+    for (int a = 0; a < 3; ++a)
+      texture.addressMode[a] = cudaAddressModeClamp;
+    texture.filterMode = cudaFilterModeLinear;
+    texture.readMode = cudaReadModeNormalizedFloat;
+    texture.normalizedCoords = 0;
+    Check(cudaCreateTextureObject(&volume.texture, &resource, &texture, nullptr), "creating the volume's texture");
   }
   const DevicePixels& Pixels(int handle) const
   {
@@ -296,8 +324,10 @@ struct GPUContext::Resident
   }
 
   /** Fills `launches` on the GPU and starts the rays; outputs at integrals + offsets. */
-  void StartRender(const DeviceVolume& volume, std::vector<Launch>& host, Interpolation interpolation)
+  void StartRender(DeviceVolume& volume, std::vector<Launch>& host, Interpolation interpolation)
   {
+    if (interpolation == Interpolation::Texture)
+      EnsureTexture(volume);
     Grow(launches, launchCapacity, host.size());
     Check(cudaMemcpyAsync(launches, host.data(), host.size() * sizeof(Launch), cudaMemcpyHostToDevice, stream),
       "copying the DRRs' geometry");
@@ -368,26 +398,6 @@ int GPUContext::AddVolume(const uint16_t* paddedVoxels, const joseph::Grid& grid
   volume.grid = grid;
   const size_t count = static_cast<size_t>(grid.dims[0]) * grid.dims[1] * grid.dims[2];
   volume.voxels = DeviceCopy(paddedVoxels, count);
-  // The texture: a 3D array of the same 16-bit steps, read as fractions with the linear filter.
-  const cudaChannelFormatDesc format = cudaCreateChannelDesc<uint16_t>();
-  const cudaExtent extent = make_cudaExtent(grid.dims[0], grid.dims[1], grid.dims[2]);
-  Check(cudaMalloc3DArray(&volume.array, &format, extent), "allocating the volume's texture");
-  cudaMemcpy3DParms copy{};
-  copy.srcPtr = make_cudaPitchedPtr(const_cast<uint16_t*>(paddedVoxels), grid.dims[0] * sizeof(uint16_t), grid.dims[0], grid.dims[1]);
-  copy.dstArray = volume.array;
-  copy.extent = extent;
-  copy.kind = cudaMemcpyHostToDevice;
-  Check(cudaMemcpy3D(&copy), "copying the volume's texture");
-  cudaResourceDesc resource{};
-  resource.resType = cudaResourceTypeArray;
-  resource.res.array.array = volume.array;
-  cudaTextureDesc texture{};
-  for (int a = 0; a < 3; ++a)
-    texture.addressMode[a] = cudaAddressModeClamp;
-  texture.filterMode = cudaFilterModeLinear;
-  texture.readMode = cudaReadModeNormalizedFloat;
-  texture.normalizedCoords = 0;
-  Check(cudaCreateTextureObject(&volume.texture, &resource, &texture, nullptr), "creating the volume's texture");
   const int handle = this->Data->next++;
   this->Data->volumes.emplace(handle, volume);
   return handle;
@@ -405,18 +415,15 @@ int GPUContext::AddPixels(const int* pixels, int count)
   return handle;
 }
 
-int GPUContext::PixelCount(int pixels) const
-{
-  return this->Data->Pixels(pixels).count;
-}
-
 void GPUContext::Remove(int handle)
 {
   Resident& data = *this->Data;
   if (auto volume = data.volumes.find(handle); volume != data.volumes.end())
   {
-    cudaDestroyTextureObject(volume->second.texture);
-    cudaFreeArray(volume->second.array);
+    if (volume->second.texture)
+      cudaDestroyTextureObject(volume->second.texture);
+    if (volume->second.array)
+      cudaFreeArray(volume->second.array);
     cudaFree(volume->second.voxels);
     data.volumes.erase(volume);
   }
@@ -437,7 +444,7 @@ long long GPUContext::Render(int volumeHandle, const joseph::Job* jobs, const in
   Interpolation interpolation)
 {
   Resident& data = *this->Data;
-  const DeviceVolume& volume = data.Volume(volumeHandle);
+  DeviceVolume& volume = data.Volume(volumeHandle);
   std::vector<Launch> launches(static_cast<size_t>(std::max(count, 0)));
   size_t total = 0;
   std::vector<size_t> offsets;
@@ -495,7 +502,7 @@ long long GPUContext::MutualInformation(int volumeHandle, const joseph::Job* job
   Interpolation interpolation)
 {
   Resident& data = *this->Data;
-  const DeviceVolume& volume = data.Volume(volumeHandle);
+  DeviceVolume& volume = data.Volume(volumeHandle);
   if (count <= 0)
     return 0;
   std::vector<Launch> launches(static_cast<size_t>(count));

@@ -58,13 +58,13 @@ public:
   int AddVolume(const uint16_t* paddedVoxels, const joseph::Grid& grid);
   /** Copies a list of pixel indices (the rays a DRR casts); returns its handle. */
   int AddPixels(const int* pixels, int count);
-  int PixelCount(int pixels) const;
+  /** Frees a volume, pixel list or metric view. */
   void Remove(int handle);
 
   /**
    * Line integrals of `count` DRRs of one volume in one launch: DRR d casts the rays of pixel list
    * `pixels[d]` with geometry `jobs[d]` and receives them, in the list's order, in `out[d]`
-   * (PixelCount floats). Returns the rays cast.
+   * (one float per listed pixel). Returns the rays cast.
    */
   long long Render(int volume, const joseph::Job* jobs, const int* pixels, int count, float* const* out,
     Interpolation interpolation = Interpolation::Float);

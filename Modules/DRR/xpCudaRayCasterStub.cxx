@@ -47,11 +47,6 @@ int GPUContext::AddPixels(const int*, int)
   throw Error("CUDA", NotBuilt);
 }
 
-int GPUContext::PixelCount(int) const
-{
-  throw Error("CUDA", NotBuilt);
-}
-
 void GPUContext::Remove(int) {}
 
 long long GPUContext::Render(int, const joseph::Job*, const int*, int, float* const*, Interpolation)

@@ -811,12 +811,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   }
   const Eigen::Affine3d roomToIndex = (ctToRoom * volume.PaddedIndexToCT()).inverse();
   if (settings.device == ComputeDevice::CUDA)
-  {
-    if (settings.method != RayCastMethod::Trilinear || settings.stepSize > 0.0)
-      throw Error("ray caster: the GPU casts Joseph's scheme only (trilinear, one sample per voxel plane)");
-    return SharedGPU::Instance().Render(
-      volume, roomToIndex, { RenderTarget{ sourceInRoom, grid, &pixels, lineIntegrals } }, settings.textureFilter);
-  }
+    return RenderLineIntegrals(volume, ctToRoom, { RenderTarget{ sourceInRoom, grid, &pixels, lineIntegrals } }, settings);
   const Eigen::Vector3d source = roomToIndex * sourceInRoom;
   const std::vector<int>& order = pixels.Order();
   const long long traced = static_cast<long long>(order.size());
@@ -881,7 +876,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   for (const RenderTarget& target : targets)
     if (!target.pixels || target.pixels->Columns() != target.grid.columns || target.pixels->Rows() != target.grid.rows)
       throw Error("ray caster: a target's traced pixels are missing or of another panel size than its grid");
-  if (settings.device != ComputeDevice::CUDA || targets.size() < 2)
+  if (settings.device != ComputeDevice::CUDA)
   {
     long long rays = 0;
     for (const RenderTarget& target : targets)
@@ -936,18 +931,19 @@ ComputeDeviceChoice ChooseComputeDevice(const std::string& option)
   return choice;
 }
 
-GPUMutualInformation::GPUMutualInformation(const AttenuationVolume& volume, std::vector<View> views, int bins)
+GPUMutualInformation::GPUMutualInformation(const AttenuationVolume& volume, const std::vector<View>& views, int bins)
   : Volume(volume)
   , VolumeOwner(volume.Storage())
-  , Items(std::move(views))
 {
-  for (const View& view : this->Items)
+  for (const View& view : views)
   {
     if (!view.pixels)
       throw Error("GPU metric: a view without its pixels");
     this->PixelOwners.push_back(view.pixels->Storage());
     this->Handles.push_back(
       SharedGPU::Instance().AddMetricView(*view.pixels, view.xrayBins, bins, view.low, view.toCell, view.cellBins));
+    this->Sources.push_back(view.source);
+    this->Grids.push_back(view.grid);
   }
 }
 
@@ -964,9 +960,9 @@ long long GPUMutualInformation::Evaluate(const std::vector<Eigen::Isometry3d>& c
   for (const Eigen::Isometry3d& pose : ctToRoom)
   {
     const Eigen::Affine3d roomToIndex = (pose * this->Volume.PaddedIndexToCT()).inverse();
-    for (size_t v = 0; v < this->Items.size(); ++v)
+    for (size_t v = 0; v < this->Handles.size(); ++v)
     {
-      jobs.push_back(MakeJob(roomToIndex, this->Items[v].source, this->Items[v].grid));
+      jobs.push_back(MakeJob(roomToIndex, this->Sources[v], this->Grids[v]));
       handles.push_back(this->Handles[v]);
     }
   }

@@ -185,7 +185,7 @@ public:
 
   /** Uploads the views' bins (the volume and pixels, where not yet there); throws xp::Error
    *  where no GPU is usable. */
-  GPUMutualInformation(const AttenuationVolume& volume, std::vector<View> views, int bins);
+  GPUMutualInformation(const AttenuationVolume& volume, const std::vector<View>& views, int bins);
   ~GPUMutualInformation();
   GPUMutualInformation(const GPUMutualInformation&) = delete;
   GPUMutualInformation& operator=(const GPUMutualInformation&) = delete;
@@ -198,8 +198,9 @@ private:
   const AttenuationVolume& Volume;
   std::shared_ptr<const void> VolumeOwner;
   std::vector<std::shared_ptr<const void>> PixelOwners;
-  std::vector<View> Items;
-  std::vector<int> Handles;
+  std::vector<int> Handles;              ///< per view, its bins on the GPU
+  std::vector<Eigen::Vector3d> Sources;  ///< per view
+  std::vector<DetectorGrid> Grids;       ///< per view
 };
 
 /** 12-bit transmission round(4095 * exp(-integral)); 0 where the mask is zero. */

@@ -180,7 +180,7 @@ void StereoSimilarity::SetUpGPUMetric()
       view.cellBins.push_back(binOf(level));
     views.push_back(std::move(view));
   }
-  this->GPUMetric = std::make_unique<GPUMutualInformation>(this->Volume, std::move(views), this->Histograms.front().Bins());
+  this->GPUMetric = std::make_unique<GPUMutualInformation>(this->Volume, views, this->Histograms.front().Bins());
 }
 
 void StereoSimilarity::FetchLastDRRs() const
@@ -226,7 +226,6 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     }
     return objective;
   }
-  this->FetchLastDRRs(); // (a GPU metric given up by SetDevice leaves nothing behind)
   this->LastPose = ctToRoom;
   const long long rays = this->Render(ctToRoom); // each DRR on every thread, or the views in one launch on the GPU
   for (size_t v = 0; v < this->Items.size(); ++v)

@@ -31,9 +31,14 @@ def main(folder, out):
     hu = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(nz, ny, nx)
     if hu.dtype != np.int16:
         sys.exit(f"export-ct.py: error: {folder}: HU are {hu.dtype}, not 16-bit integers")
-    body = np.argwhere(hu >= AIR)
-    low = np.maximum(body.min(axis=0) - 1, 0)
-    high = np.minimum(body.max(axis=0) + 2, hu.shape)
+    inside = hu >= AIR
+    if not inside.any():
+        sys.exit(f"export-ct.py: error: {folder}: no voxel at or above {AIR} HU: nothing but air")
+    low, high = [], []
+    for axis in range(3):  # the body's extent along each array axis (z, y, x), one voxel around it
+        along = np.flatnonzero(inside.any(axis=tuple(a for a in range(3) if a != axis)))
+        low.append(max(along[0] - 1, 0))
+        high.append(min(along[-1] + 2, hu.shape[axis]))
     crop = hu[low[0]:high[0], low[1]:high[1], low[2]:high[2]].copy()
     crop[crop < AIR] = -1000
     direction = np.array([[image.GetDirectionMatrix().GetElement(r, c) for c in range(3)] for r in range(3)])

@@ -552,6 +552,27 @@ TEST(Commands, RegisterBadInputExitsWithTwo)
   EXPECT_FALSE(Exists("cmd-reg-bad"));
 }
 
+// The GPU casts trilinear rays on the voxel planes only: Siddon with --device cuda is refused on
+// any machine, with auto it runs on the CPU, and a device that is no device is refused with it too.
+TEST(Commands, DRRDeviceRefusesWhatTheGPUCannotCast)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-dev-siddon"), 0);
+  xp::DRROptions drr = SmallDRR("cmd-dev-siddon");
+  drr.method = "siddon";
+  for (const char* device : { "cuda", "gpu" })
+  {
+    drr.device = device;
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitBadInput) << device;
+    const std::string error = testing::internal::GetCapturedStderr();
+    EXPECT_NE(error.find("--device"), std::string::npos) << error;
+    EXPECT_FALSE(Exists("cmd-dev-siddon")) << device;
+  }
+  drr.device = "auto";
+  EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
+  EXPECT_TRUE(Exists("cmd-dev-siddon/drr_A.png"));
+}
+
 // --device cuda where no GPU can run it is refused before any work, naming the option and why;
 // auto says that it runs on the CPU and does; result.json says where the rays were cast.
 TEST(Commands, DeviceOptionRefusesAMissingGPUAndRecordsWhereItRan)
