@@ -54,6 +54,7 @@ double Percentile95(std::vector<double> values)
 /** One stage's figures in one trial. */
 struct StageFigures
 {
+  int imageDivisor = 0; ///< 0: not a stage of the trace
   double evaluations = 0, drrs = 0, megaRays = 0, renderSeconds = 0, metricSeconds = 0, wallSeconds = 0, cpuSeconds = 0;
 };
 
@@ -64,12 +65,15 @@ struct VariantFigures
   std::vector<std::string> stageOrder;
   std::map<std::string, std::vector<StageFigures>> stages;
   std::vector<double> seconds, evaluations, mtre, megaRays, renderShare, renderSeconds;
+  std::vector<double> busy; ///< per trial: CPU time of the staged work over its wall time and the cores
+  std::string schedule;     ///< the first trial's (DescribeSchedule)
   int ok = 0, success = 0, trials = 0;
 };
 
 StageFigures FiguresOf(const RegistrationStage& stage, int nextEvaluation)
 {
   StageFigures f;
+  f.imageDivisor = stage.imageDivisor;
   f.evaluations = nextEvaluation - stage.firstEvaluation;
   f.drrs = static_cast<double>(stage.cost.drrs);
   f.megaRays = stage.cost.rays / 1e6;
@@ -80,8 +84,10 @@ StageFigures FiguresOf(const RegistrationStage& stage, int nextEvaluation)
   return f;
 }
 
-void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegistrationResult& result)
+void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegistrationResult& result, int cores)
 {
+  if (variant.trials == 0)
+    variant.schedule = DescribeSchedule(result.schedule);
   ++variant.trials;
   variant.ok += record.status == "ok";
   variant.success += record.success;
@@ -121,8 +127,11 @@ void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegi
   add("quality gate (each view's checks)", gate);
   // What no stage holds: reading the X-rays into the filter, the end-face test, the records.
   double staged = prealign.wallSeconds + masks.wallSeconds + gate.wallSeconds;
+  double stagedCPU = prealign.cpuSeconds + masks.cpuSeconds + gate.cpuSeconds;
   for (const RegistrationStage& stage : result.stages)
-    staged += stage.seconds;
+    staged += stage.seconds, stagedCPU += stage.cpuSeconds;
+  if (staged > 0.0)
+    variant.busy.push_back(stagedCPU / (staged * cores));
   StageFigures other;
   other.wallSeconds = std::max(0.0, record.totalSeconds - staged);
   other.cpuSeconds = -1.0;
@@ -134,9 +143,11 @@ void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegi
 
 void PrintStages(const VariantFigures& variant, int cores)
 {
+  std::printf("\n%s: the schedule (xpRegistrationSchedule.h; result.json `schedule`)\n%s", variant.optimizer.c_str(),
+    variant.schedule.c_str());
   std::printf("\n%s: medians over the trials that ran each stage\n", variant.optimizer.c_str());
-  std::printf("| stage | trials | evaluations | DRRs | rays (M) | DRR time (s) | metric time (s) | wall (s) | cores busy |\n"
-              "|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| stage | images | trials | evaluations | DRRs | rays (M) | DRR time (s) | metric time (s) | wall (s) | cores busy |\n"
+              "|---|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& name : variant.stageOrder)
   {
     const std::vector<StageFigures>& all = variant.stages.at(name);
@@ -148,11 +159,13 @@ void PrintStages(const VariantFigures& variant, int cores)
       if (f.cpuSeconds >= 0.0 && f.wallSeconds > 0.0)
         busy.push_back(f.cpuSeconds / (f.wallSeconds * cores));
     }
-    char busyText[32] = "-";
+    char busyText[32] = "-", sizeText[32] = "-";
     if (!busy.empty())
       std::snprintf(busyText, sizeof busyText, "%.0f %%", 100.0 * Median(busy));
-    std::printf("| %s | %zu | %.0f | %.0f | %.2f | %.3f | %.3f | %.3f | %s |\n", name.c_str(), all.size(), Median(e), Median(d),
-      Median(r), Median(render), Median(metric), Median(wall), busyText);
+    if (all.front().imageDivisor > 0)
+      std::snprintf(sizeText, sizeof sizeText, "1/%d", all.front().imageDivisor);
+    std::printf("| %s | %s | %zu | %.0f | %.0f | %.2f | %.3f | %.3f | %.3f | %s |\n", name.c_str(), sizeText, all.size(), Median(e),
+      Median(d), Median(r), Median(render), Median(metric), Median(wall), busyText);
   }
 }
 
@@ -247,7 +260,7 @@ int RunBenchRegister(const BenchRegisterOptions& options)
           EvaluationFolder folder(directory.string(), "{\"bench\": \"register\", \"variant\": \"" + name + "\"}");
           evaluation.Run(options.trials, { "B" }, folder, [&](const TrialRecord& record, int, int)
             {
-              Record(variant, record, evaluation.LastResult());
+              Record(variant, record, evaluation.LastResult(), cores);
               std::fprintf(stderr, "%s: trial %d, %s, mTRE %.3f mm, %.2f s%s%s\n", name.c_str(), record.trial,
                 record.status.c_str(), record.mtre, record.totalSeconds, record.reasons.empty() ? "" : ": ", record.reasons.c_str());
             });
@@ -261,14 +274,14 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   std::printf("\nVariants side by side (the same trials and X-rays; time = the registration, CT read excluded; the CT "
               "read once, %.2f s, added in its own column: what one `xpose register` on this CT waits for)\n", readSeconds);
   std::printf("| variant | ok | within 1 mm and ok | median mTRE (mm) | median evaluations | median rays (M) | median DRR time "
-              "(s) | DRR share of the time | median time (s) | p95 time (s) | median time with the CT read (s) | time / %s |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+              "(s) | DRR share of the time | cores busy | median time (s) | p95 time (s) | median time with the CT read (s) | time / %s |\n"
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     variants.front().optimizer.c_str());
   const double reference = Median(variants.front().seconds);
   for (const VariantFigures& v : variants)
-    std::printf("| %s | %d/%d | %d/%d | %.3f | %.0f | %.1f | %.3f | %.0f %% | %.2f | %.2f | %.2f | %.2f |\n", v.optimizer.c_str(),
+    std::printf("| %s | %d/%d | %d/%d | %.3f | %.0f | %.1f | %.3f | %.0f %% | %.0f %% | %.2f | %.2f | %.2f | %.2f |\n", v.optimizer.c_str(),
       v.ok, v.trials, v.success, v.trials, Median(v.mtre), Median(v.evaluations), Median(v.megaRays), Median(v.renderSeconds),
-      100.0 * Median(v.renderShare),
+      100.0 * Median(v.renderShare), 100.0 * Median(v.busy),
       Median(v.seconds), Percentile95(v.seconds), Median(v.seconds) + readSeconds,
       reference > 0.0 ? Median(v.seconds) / reference : 0.0);
   return ExitOk;

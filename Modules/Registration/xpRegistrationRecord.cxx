@@ -205,6 +205,9 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.peakLeads = result.peakLeads;
   record.stages = result.stages;
   record.objectiveTrace = result.objectiveTrace;
+  record.schedule = result.schedule;
+  record.prealignIterations = result.prealignment.iterations;
+  record.prealignDRRs = result.prealignment.drrs;
   return record;
 }
 
@@ -330,8 +333,40 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     Json::Value item(Json::objectValue);
     item["name"] = stage.name;
     item["first_evaluation"] = stage.firstEvaluation;
+    item["evaluations"] = stage.evaluations;
+    item["image_divisor"] = stage.imageDivisor;
     item["seconds"] = stage.seconds;
     stages.append(item);
+  }
+  root["prealignment_2d"]["iterations"] = r.prealignIterations;
+  root["prealignment_2d"]["drrs"] = static_cast<Json::Int64>(r.prealignDRRs);
+  Json::Value& schedule = root["schedule"] = Json::Value(Json::arrayValue);
+  for (const ScheduledStage& stage : r.schedule.stages)
+  {
+    Json::Value item(Json::objectValue);
+    item["kind"] = StageKindName(stage.kind);
+    item["name"] = stage.name;
+    item["image_divisor"] = stage.imageDivisor;
+    if (stage.kind == StageKind::Search)
+    {
+      item["track"] = stage.track;
+      item["stops_at_first_track_end"] = stage.stopAtFirstEnd;
+    }
+    if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement || stage.kind == StageKind::Restarts)
+    {
+      const PoseOptimizerSettings& o = stage.optimizer;
+      Json::Value& optimizer = item["optimizer"];
+      optimizer["method"] = PoseOptimizerMethodName(o.method);
+      optimizer["step_mm"] = o.initialStepMM;
+      optimizer["step_deg"] = o.initialStepDegrees;
+      optimizer["tolerance_mm"] = o.toleranceMM;
+      optimizer["tolerance_deg"] = o.toleranceDegrees;
+      optimizer["max_evaluations"] = o.maxEvaluations;
+      optimizer["restarts"] = o.maxRestarts;
+    }
+    if (stage.rounds > 0)
+      item["rounds"] = stage.rounds;
+    schedule.append(item);
   }
   root["convergence"]["objective"] = List(r.objectiveTrace);
   Json::StreamWriterBuilder builder;
@@ -485,8 +520,48 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
     if (!stage.isObject() || !stage["name"].isString() || !stage["first_evaluation"].isInt() ||
       !stage["seconds"].isNumeric())
       f.Fail("convergence.stages", "must list {name, first_evaluation, seconds}");
-    r.stages.push_back({ stage["name"].asString(), stage["first_evaluation"].asInt(), stage["seconds"].asDouble() });
+    RegistrationStage read{ stage["name"].asString(), stage["first_evaluation"].asInt(), stage["seconds"].asDouble() };
+    read.evaluations = stage["evaluations"].isInt() ? stage["evaluations"].asInt() : 0; // absent before the schedule
+    read.imageDivisor = stage["image_divisor"].isInt() ? stage["image_divisor"].asInt() : 0;
+    r.stages.push_back(read);
   }
+  if (f.Has("prealignment_2d")) // absent in records written before the schedule
+  {
+    r.prealignIterations = static_cast<int>(f.Number("prealignment_2d.iterations"));
+    r.prealignDRRs = static_cast<long long>(f.Number("prealignment_2d.drrs"));
+  }
+  if (f.Has("schedule"))
+    for (const Json::Value& item : f.Array("schedule"))
+    {
+      ScheduledStage stage;
+      bool known = false;
+      for (StageKind kind : { StageKind::PreAlignment, StageKind::Masks, StageKind::Search, StageKind::Refinement,
+             StageKind::Polish, StageKind::Restarts, StageKind::Landscape, StageKind::Gate })
+        if (item.isObject() && item["kind"].isString() && item["kind"].asString() == StageKindName(kind))
+          stage.kind = kind, known = true;
+      if (!known || !item["name"].isString() || !item["image_divisor"].isInt())
+        f.Fail("schedule", "must list {kind (a stage kind), name, image_divisor, ...}");
+      stage.name = item["name"].asString();
+      stage.imageDivisor = item["image_divisor"].asInt();
+      stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
+      stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
+      stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;
+      const Json::Value& o = item["optimizer"];
+      if (o.isObject())
+      {
+        if (!o["method"].isString() || !o["step_mm"].isNumeric() || !o["step_deg"].isNumeric() || !o["tolerance_mm"].isNumeric() ||
+          !o["tolerance_deg"].isNumeric() || !o["max_evaluations"].isInt() || !o["restarts"].isInt())
+          f.Fail("schedule", "an optimizer must hold method, step_mm, step_deg, tolerance_mm, tolerance_deg, max_evaluations, restarts");
+        stage.optimizer.method = ParsePoseOptimizerMethod(o["method"].asString(), "schedule.optimizer.method");
+        stage.optimizer.initialStepMM = o["step_mm"].asDouble();
+        stage.optimizer.initialStepDegrees = o["step_deg"].asDouble();
+        stage.optimizer.toleranceMM = o["tolerance_mm"].asDouble();
+        stage.optimizer.toleranceDegrees = o["tolerance_deg"].asDouble();
+        stage.optimizer.maxEvaluations = o["max_evaluations"].asInt();
+        stage.optimizer.maxRestarts = o["restarts"].asInt();
+      }
+      r.schedule.stages.push_back(stage);
+    }
   r.objectiveTrace = f.Numbers("convergence.objective");
   return r;
 }

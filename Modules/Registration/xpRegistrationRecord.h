@@ -68,8 +68,14 @@ struct RegistrationRecord
   std::vector<double> edgeDistanceMM, edgeDistanceShiftedMM;
   double peakMargin = 0.0;
   std::array<double, 12> peakLeads{}; ///< StereoRegistrationResult::peakLeads; written, not read back
+  /** The 6-DOF stages as they ran: where each begins in the trace, its evaluations, its images'
+   *  size and its wall time (evaluations and size: 0 in records written before them). */
   std::vector<RegistrationStage> stages;
   std::vector<double> objectiveTrace;
+  RegistrationSchedule schedule; ///< the stages as scheduled (empty in records written before it)
+  /** The pre-alignment's 2D work beside the stereo evaluations: its iterations and DRRs. */
+  int prealignIterations = 0;
+  long long prealignDRRs = 0;
   std::optional<RegistrationRecordInputs> inputs; ///< absent when no command wrote the record
   /** The volume's own coordinates (a DICOM CT's patient LPS mm; a TIFF volume's voxel grid in mm,
    *  its first voxel at 0) to Room mm at the result, and the volume's centre in them: what places

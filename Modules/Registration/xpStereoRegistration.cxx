@@ -16,7 +16,9 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 #include <memory>
+#include <optional>
 
 namespace xp
 {
@@ -72,40 +74,55 @@ std::vector<RegistrationView> AtCoarseSize(const std::vector<RegistrationView>& 
   return coarse;
 }
 
-/** Starts a stage of the 6-DOF search; the previous one, if any, ends here. */
-/** When the running stage began, and what the similarities had cost by then. */
-struct StageStart
+/**
+ * The objective trace of the 6-DOF stages and where each stage begins in it: a stage's wall time,
+ * CPU time, cost and evaluations are taken when it ends (or the next begins).
+ */
+class StageTrace
 {
-  const SimilarityCost& sink; ///< the registration's running total
-  Clock::time_point time{};
-  SimilarityCost cost;
-  std::clock_t cpu = 0; ///< the process's CPU time, all threads
+public:
+  explicit StageTrace(const SimilarityCost& sink) : Sink(sink) {}
+
+  void Begin(const std::string& name, int imageDivisor)
+  {
+    this->End();
+    this->Time = Clock::now();
+    this->Cost = this->Sink;
+    this->CPU = std::clock();
+    RegistrationStage stage;
+    stage.name = name;
+    stage.firstEvaluation = static_cast<int>(this->Objective.size());
+    stage.imageDivisor = imageDivisor;
+    this->Stages.push_back(stage);
+    this->Open = true;
+  }
+  void End()
+  {
+    if (!this->Open)
+      return;
+    RegistrationStage& stage = this->Stages.back();
+    stage.seconds = Since(this->Time);
+    stage.cost = this->Sink - this->Cost;
+    stage.cpuSeconds = CPUSince(this->CPU);
+    stage.evaluations = static_cast<int>(this->Objective.size()) - stage.firstEvaluation;
+    this->Open = false;
+  }
+  double Traced(double objective)
+  {
+    this->Objective.push_back(objective);
+    return objective;
+  }
+
+  std::vector<double> Objective;
+  std::vector<RegistrationStage> Stages;
+
+private:
+  const SimilarityCost& Sink; ///< the registration's running total
+  Clock::time_point Time{};
+  SimilarityCost Cost;
+  std::clock_t CPU = 0;
+  bool Open = false;
 };
-
-/** Closes the running stage (its wall time and cost), if any. */
-void EndStage(StereoRegistrationResult& result, const StageStart& stageStart)
-{
-  if (result.stages.empty())
-    return;
-  result.stages.back().seconds = std::chrono::duration<double>(Clock::now() - stageStart.time).count();
-  result.stages.back().cost = stageStart.sink - stageStart.cost;
-  result.stages.back().cpuSeconds = static_cast<double>(std::clock() - stageStart.cpu) / CLOCKS_PER_SEC;
-}
-
-void BeginStage(StereoRegistrationResult& result, const char* name, StageStart& stageStart)
-{
-  EndStage(result, stageStart);
-  stageStart.time = Clock::now();
-  stageStart.cost = stageStart.sink;
-  stageStart.cpu = std::clock();
-  result.stages.push_back({ name, static_cast<int>(result.objectiveTrace.size()) });
-}
-
-double Traced(StereoRegistrationResult& result, double objective)
-{
-  result.objectiveTrace.push_back(objective);
-  return objective;
-}
 
 double TranslationApart(const Pose& a, const Pose& b)
 {
@@ -207,11 +224,15 @@ void AndCoverage(RegistrationView& item, const CTCoverage& coverage, const Eigen
     item.mask[i] &= covered[i];
 }
 
-void RecordDisagreement(StereoRegistrationResult& result, const PoseOptimizerResult& a, const PoseOptimizerResult& b)
+/** How far two searches' ends lie apart, and the worse one's objective over the better one's. */
+struct Disagreement
 {
-  result.searchDisagreementMM = TranslationApart(a.pose, b.pose);
-  result.searchDisagreementDegrees = RotationApart(a.pose, b.pose);
-  result.searchObjectiveRatio = std::min(a.value, b.value) / std::max(a.value, b.value);
+  double mm = 0.0, degrees = 0.0, objectiveRatio = 1.0;
+};
+
+Disagreement Between(const PoseOptimizerResult& a, const PoseOptimizerResult& b)
+{
+  return { TranslationApart(a.pose, b.pose), RotationApart(a.pose, b.pose), std::min(a.value, b.value) / std::max(a.value, b.value) };
 }
 
 } // namespace
@@ -295,11 +316,13 @@ struct ValidityMasks
 {
   std::vector<std::vector<uint8_t>> content;
   std::vector<RegistrationView> masked; ///< the views with the validity masks
+  std::vector<std::vector<float>> entropyMaps; ///< empty without entropy masks
+  std::vector<double> validFraction;           ///< of each view's pixels
 };
 
 ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
   const std::vector<std::vector<uint16_t>>& maskSource, const StereoRegistrationSettings& settings,
-  const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom, StereoRegistrationResult& result)
+  const CTCoverage& coverage, const Eigen::Isometry3d& ctToRoom, const std::vector<EndFaceEvidence>& endFaces)
 {
   ValidityMasks masks;
   masks.masked = views;
@@ -316,7 +339,7 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
       EntropyMaskResult entropy =
         ComputeEntropyMask(maskSource[v].data(), item.view.Columns(), item.view.Rows(), roi, entropySettings);
       mask = std::move(entropy.mask);
-      result.entropyMaps.push_back(std::move(entropy.entropy));
+      masks.entropyMaps.push_back(std::move(entropy.entropy));
     }
     else
     {
@@ -326,115 +349,15 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
     masked.mask = std::move(mask);
     masks.content.push_back(masked.mask);
     if (settings.coverageMask)
-      AndCoverage(masked, coverage, ctToRoom, result.endFaces[v].facesToLeaveOut);
+      AndCoverage(masked, coverage, ctToRoom, endFaces[v].facesToLeaveOut);
     const long long valid = std::count(masked.mask.begin(), masked.mask.end(), 1);
     if (valid == 0)
     {
       throw InputError("view " + item.view.name, "the validity mask is empty: nothing left to register");
     }
-    result.validFraction.push_back(static_cast<double>(valid) / masked.mask.size());
+    masks.validFraction.push_back(static_cast<double>(valid) / masked.mask.size());
   }
   return masks;
-}
-
-/** The refinement's optimiser: steps and tolerances ten times finer than the accuracy asked. */
-PoseOptimizerSettings RefinementSettings(const StereoRegistrationSettings& settings)
-{
-  PoseOptimizerSettings fine;
-  fine.method = settings.refinementOptimizer;
-  fine.maxEvaluations = settings.maxEvaluations;
-  // No restart here: the coarse search's restarts already escaped the valley's stalls, and on 14
-  // pelvis trials a restart of the refinement cost a third of the time and changed the median
-  // mTRE by 0.006 mm.
-  fine.maxRestarts = 0;
-  fine.initialStepMM = 0.25;
-  fine.initialStepDegrees = 0.15;
-  fine.toleranceMM = 0.05;
-  fine.toleranceDegrees = 0.03;
-  return fine;
-}
-
-/**
- * Step 3a: the coarse search, run twice, the second time from the pre-alignment moved along the
- * roll/lateral valley (roll turns about the axis perpendicular to both central rays, which two
- * views see least): a landscape with two optima there cannot give a trustworthy result. Two
- * independent starts, not the first end moved: a search from the first end can stall on the
- * valley's flat floor short of it. Returns the ends to refine, better first.
- */
-std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, StereoSimilarity* quarter, const Pose& start,
-  const StereoRegistrationSettings& settings, bool halfResolution, StereoRegistrationResult& result, ProgressReporter& progress,
-  StageStart& stageStart)
-{
-  PoseOptimizerSettings searchSettings = RefinementSettings(settings);
-  searchSettings.method = settings.optimizer;
-  searchSettings.initialStepMM = 2.0;
-  searchSettings.initialStepDegrees = 1.0;
-  searchSettings.toleranceMM = 0.1;
-  searchSettings.toleranceDegrees = 0.05;
-  searchSettings.maxRestarts = 3; // stalls happen in the long coarse travel; restarts are cheap here
-  // Every evaluation, at either size, is traced and heard.
-  const auto tracedOn = [&](StereoSimilarity* measure)
-  {
-    return [&result, &progress, measure](const Pose& p)
-    {
-      const double value = Traced(result, measure->Evaluate(p));
-      progress.Evaluated(value);
-      return value;
-    };
-  };
-  const auto objective = tracedOn(&similarity);
-  const auto quarterObjective = tracedOn(quarter);
-  // The travel on quarter-size images (2 mm pixels at the isocentre at 512x384) stops at twice
-  // the search's tolerances; the half-size search goes on from it with a quarter of its simplex.
-  PoseOptimizerSettings travelSettings = searchSettings;
-  travelSettings.toleranceMM = 2.0 * searchSettings.toleranceMM;
-  travelSettings.toleranceDegrees = 2.0 * searchSettings.toleranceDegrees;
-  // One search: its travel at quarter size when there is one, its end at half (or full) size.
-  const auto search = [&](const Pose& from, const char* travelName, const char* name, const PoseOptimizerSettings& endSettings)
-  {
-    Pose travelled = from;
-    int travelEvaluations = 0;
-    PoseOptimizerSettings own = endSettings;
-    if (quarter)
-    {
-      BeginStage(result, travelName, stageStart);
-      const PoseOptimizerResult travel = MaximizePose(quarterObjective, from, travelSettings);
-      travelled = travel.pose;
-      travelEvaluations = travel.evaluations;
-      own.initialStepMM = 0.25 * endSettings.initialStepMM;
-      own.initialStepDegrees = 0.25 * endSettings.initialStepDegrees;
-    }
-    BeginStage(result, name, stageStart);
-    PoseOptimizerResult found = MaximizePose(objective, travelled, own);
-    found.evaluations += travelEvaluations;
-    return found;
-  };
-  const char* name = halfResolution ? "coarse search (half resolution)" : "coarse search";
-  progress.Begin(name, 0.1, 0.45);
-  PoseOptimizerResult first = search(start, "coarse search (quarter resolution)", name, searchSettings);
-  result.evaluations += first.evaluations;
-  if (!(settings.maxSearchDisagreementMM > 0.0))
-    return { first.pose };
-  Pose moved = start;
-  moved.roll += 1.5;
-  moved.translation[0] += 1.5;
-  progress.Begin("second coarse search", 0.45, 0.7);
-  // Once the second search stands where the first ended, about as high, it has found the same
-  // optimum: the rest of its travel would only polish it. (Judged at the size the first ended:
-  // the quarter-size travel's objective is on another scale.)
-  PoseOptimizerSettings secondSettings = searchSettings;
-  secondSettings.stopWhen = [&](const Pose& pose, double value)
-  { return Agree(pose, first.pose, settings) && value >= settings.sameOptimumObjectiveRatio * first.value; };
-  PoseOptimizerResult second = search(moved, "second coarse search (quarter resolution)", "second coarse search", secondSettings);
-  result.evaluations += second.evaluations;
-  if (second.value > first.value)
-    std::swap(first, second);
-  RecordDisagreement(result, first, second);
-  // Ends far apart matter only when both are about as good; a clearly worse end is a local
-  // optimum that the better search left behind. Comparable ends far apart are refined both.
-  if (!Agree(first.pose, second.pose, settings) && second.value >= settings.refineBothObjectiveRatio * first.value)
-    return { first.pose, second.pose };
-  return { first.pose };
 }
 
 /**
@@ -452,9 +375,17 @@ std::vector<Pose> SearchFromTwoStarts(StereoSimilarity& similarity, StereoSimila
  * head's held-out peak along roll by more than the 1.5 degree probe while its result is right to
  * 0.3 degree (Algorithms.md, "A verdict...", 2).
  */
-void MeasureLandscape(const std::function<double(const Pose&)>& objective, StereoSimilarity& heldOut, const Pose& result,
-  double atResult, const StereoRegistrationSettings& settings, StereoRegistrationResult& out)
+struct Landscape
 {
+  std::array<double, 6> uncertainty{}; ///< StereoRegistrationResult::uncertainty
+  double peakMargin = 0.0;
+  std::array<double, 12> peakLeads{};
+};
+
+Landscape MeasureLandscape(const std::function<double(const Pose&)>& objective, StereoSimilarity& heldOut, const Pose& result,
+  double atResult, const StereoRegistrationSettings& settings)
+{
+  Landscape out;
   const std::array<double, 6> center = result.Parameters();
   const auto moved = [&](int axis, double step)
   {
@@ -481,7 +412,7 @@ void MeasureLandscape(const std::function<double(const Pose&)>& objective, Stere
       if (a < 3 || settings.heldOutJudgesTurns)
         out.peakMargin = std::min(out.peakMargin, lead);
     }
-  out.drrCount += heldOut.RenderedDRRs();
+  return out;
 }
 
 /** How far the DRR's edges move for the edge measure's chance level (mm at the isocentre). */
@@ -492,8 +423,14 @@ constexpr double EdgeShiftMM = 3.0;
  *  equalised levels; the X-ray as the reader sees it in the overlay, before its smoothing (a
  *  thin rim blurred in one image only puts its edges a pixel apart). Not a gate check: a figure
  *  to read beside the overlay. */
-void MeasureEdges(StereoSimilarity& atFullSize, const Pose& pose, const Eigen::Vector3d& isocenter, StereoRegistrationResult& result)
+struct EdgeDistances
 {
+  std::vector<double> mm, shiftedMM; ///< StereoRegistrationResult::edgeDistanceMM, edgeDistanceShiftedMM
+};
+
+EdgeDistances MeasureEdges(StereoSimilarity& atFullSize, const Pose& pose, const Eigen::Vector3d& isocenter)
+{
+  EdgeDistances result;
   atFullSize.Evaluate(pose);
   for (size_t v = 0; v < atFullSize.Views().size(); ++v)
   {
@@ -502,9 +439,10 @@ void MeasureEdges(StereoSimilarity& atFullSize, const Pose& pose, const Eigen::V
     const int shift = std::max(1, static_cast<int>(std::lround(EdgeShiftMM / mmPerPixel)));
     const EdgeAgreement edges =
       MeasureEdgeAgreement(atFullSize.XRayLevels(v), atFullSize.LastDRRLevels(v), item.mask, item.view.Columns(), item.view.Rows(), shift);
-    result.edgeDistanceMM.push_back(edges.medianPixels < 0.0 ? -1.0 : edges.medianPixels * mmPerPixel);
-    result.edgeDistanceShiftedMM.push_back(edges.shiftedMedianPixels < 0.0 ? -1.0 : edges.shiftedMedianPixels * mmPerPixel);
+    result.mm.push_back(edges.medianPixels < 0.0 ? -1.0 : edges.medianPixels * mmPerPixel);
+    result.shiftedMM.push_back(edges.shiftedMedianPixels < 0.0 ? -1.0 : edges.shiftedMedianPixels * mmPerPixel);
   }
+  return result;
 }
 
 /** Step 4b: what each view says about the result: the information its final DRR explains, the
@@ -599,7 +537,7 @@ std::vector<RegistrationView> MedianFiltered(std::vector<RegistrationView> views
  * scale, and the averages keep the levels between the stored ones.
  */
 std::vector<RegistrationView> SmoothedToTheCT(std::vector<RegistrationView> views, const AttenuationVolume& volume,
-  const Eigen::Vector3d& roomIsocenter, const StereoRegistrationSettings& settings, StereoRegistrationResult& result)
+  const Eigen::Vector3d& roomIsocenter, const StereoRegistrationSettings& settings, std::vector<double>& sigmas)
 {
   for (RegistrationView& item : views)
   {
@@ -608,7 +546,7 @@ std::vector<RegistrationView> SmoothedToTheCT(std::vector<RegistrationView> view
       settings.xraySmoothingPerVoxel * volume.MinimumSpacing() / PixelSpacingAtIsocenter(item.view, roomIsocenter);
     if (!(sigma >= LeastSmoothingPixels && std::isfinite(sigma)) || item.xray.empty())
     {
-      result.xraySmoothingPixels.push_back(0.0);
+      sigmas.push_back(0.0);
       continue;
     }
     int scale = 1;
@@ -616,7 +554,7 @@ std::vector<RegistrationView> SmoothedToTheCT(std::vector<RegistrationView> view
     while (settings.rankedXRays && 2 * scale * largest <= 65535)
       scale *= 2;
     item.xray = GaussianSmoothed(item.xray, columns, rows, sigma, scale);
-    result.xraySmoothingPixels.push_back(sigma);
+    sigmas.push_back(sigma);
   }
   return views;
 }
@@ -633,6 +571,11 @@ struct WorkingXRays
    *  uncovered-anatomy check's "below 80 % of the open field". Not ranks, nor the DRR's
    *  distribution: that lacks the anatomy the CT does not have, which the check looks for. */
   std::vector<std::vector<uint16_t>> openFieldBright;
+  /** Per view: the ranks' correlation with the DRR at the start, and whether they were turned
+   *  over for it (StereoRegistrationResult::xrayCorrelation, xrayInverted). */
+  std::vector<double> correlation;
+  std::vector<bool> inverted;
+  long long drrs = 0; ///< rendered for the polarity
 };
 
 /** Pearson correlation of an X-ray's levels with its DRR over the valid pixels (empty mask: all). */
@@ -653,7 +596,7 @@ double CorrelationWithDRR(const std::vector<uint16_t>& xray, const std::vector<u
  */
 WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const Pose& start, bool pyramid,
-  ComputeDevice device, StereoRegistrationResult& result)
+  ComputeDevice device, const std::vector<double>& smoothingPixels)
 {
   WorkingXRays working;
   working.ranked = views;
@@ -662,18 +605,18 @@ WorkingXRays RankedXRays(const std::vector<RegistrationView>& views, const Atten
   StereoSimilarity probe(volume, plannedCTToRoom, isocenter, AtCoarseSize(working.ranked, pyramid), 32, { false, 0.0 });
   probe.SetDevice(device);
   probe.Evaluate(start);
-  result.drrCount += probe.RenderedDRRs();
+  working.drrs = probe.RenderedDRRs();
   for (size_t v = 0; v < working.ranked.size(); ++v)
   {
     RegistrationView& item = working.ranked[v];
     const double correlation = CorrelationWithDRR(probe.Views()[v].xray, probe.LastDRR(v), probe.Views()[v].mask);
-    result.xrayCorrelation.push_back(correlation);
-    result.xrayInverted.push_back(correlation < 0.0);
+    working.correlation.push_back(correlation);
+    working.inverted.push_back(correlation < 0.0);
     if (correlation < 0.0)
       for (uint16_t& level : item.xray)
         level = static_cast<uint16_t>(RankLevels - 1 - level);
     working.noiseScaled.push_back(NoiseScaledLevels(item.xray, item.view.Columns(), item.view.Rows(), item.mask,
-      EntropyLevelsPerNoiseSigma * NeighbourNoiseShare(result.xraySmoothingPixels[v]), 8.0));
+      EntropyLevelsPerNoiseSigma * NeighbourNoiseShare(smoothingPixels[v]), 8.0));
     std::vector<uint16_t> values = views[v].xray;
     if (correlation < 0.0)
     {
@@ -749,6 +692,573 @@ std::vector<std::string> StereoRegistrationResult::Reasons() const
   return GateMessages(this->failures);
 }
 
+namespace
+{
+
+/** The searches' ends and how they compare: what the refinement starts from. */
+struct SearchEnds
+{
+  std::vector<Pose> ends; ///< better first; two when both are refined
+  Disagreement disagreement;
+};
+
+/** The refinement's ends, better first, and what the gate reads of them. */
+struct Refined
+{
+  std::vector<PoseOptimizerResult> ends;
+  Disagreement disagreement; ///< between the two refined ends, when there were two
+  bool ambiguous = false;    ///< two ends apart and about as good (GateEvidence::ambiguous)
+};
+
+/** A bone's restarts around the result: the farthest end from it. */
+struct Restarts
+{
+  double apartMM = 0.0, apartDegrees = 0.0;
+};
+
+/** The gate's reading of the result: each view's evidence and the failures. */
+struct GateOutcome
+{
+  std::vector<ViewEvidence> views;
+  std::vector<GateFailure> failures;
+};
+
+/**
+ * One registration: its inputs prepared (step 0), then the stages of its schedule in order, each
+ * returning what it found; Run() keeps that in the result. The similarities of the stages are
+ * built when a stage first needs them and counted into one cost.
+ */
+class StereoRegistrationRun
+{
+public:
+  StereoRegistrationRun(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
+    const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& givenViews,
+    const StereoRegistrationSettings& requested, const RegistrationObserver& observer)
+    : Volume(volume), PlannedCTToRoom(plannedCTToRoom), RoomIsocenter(roomIsocenter), Isocenter(roomIsocenter),
+      Progress(observer), Trace(Cost)
+  {
+    this->Result.device = ComputeDeviceDescription(requested.device);
+    this->Result.boneOnly = requested.detectBoneOnly && OuterSurfaceIsBone(volume);
+    // A bone turns about its own centre: about an isocentre some centimetres away, each turn would
+    // also move it, and the optimiser's steps and the landscape's probes would mix the two. Poses
+    // are about the volume's centre at the start inside, and about the isocentre outside.
+    this->Settings = this->Result.boneOnly ? ForBone(requested, volume) : requested;
+    this->UnsmoothedViews = this->Settings.medianFilter ? MedianFiltered(givenViews) : givenViews;
+    this->InputViews =
+      SmoothedToTheCT(this->UnsmoothedViews, volume, roomIsocenter, this->Settings, this->Result.xraySmoothingPixels);
+    if (this->Result.boneOnly)
+    {
+      this->Isocenter = MisalignedCTToRoom(plannedCTToRoom, requested.initialPose, roomIsocenter) * volume.IndexToCT() *
+        (0.5 * (volume.Dimensions().cast<double>() - Eigen::Vector3d::Ones()));
+      this->Settings.initialPose = Pose::FromTransform(requested.initialPose.ToTransform(roomIsocenter), this->Isocenter);
+    }
+    const RegistrationView& first = this->InputViews[0];
+    this->Pyramid = this->Settings.pyramid && first.view.Columns() >= 256 && first.view.Rows() >= 192;
+    const bool quarter = this->Pyramid && first.view.Columns() >= 512 && first.view.Rows() >= 384;
+    this->CorrelationMM = this->Result.boneOnly ? this->Settings.boneCorrelationHighPassMM : 0.0;
+    this->Result.schedule = MakeSchedule(this->Settings, this->Pyramid, quarter, this->Result.boneOnly);
+    this->Result.start = requested.initialPose;
+  }
+
+  StereoRegistrationResult Run()
+  {
+    const std::vector<ScheduledStage>& stages = this->Result.schedule.stages;
+    std::array<std::optional<PoseOptimizerResult>, 2> trackEnds;
+    SearchEnds searchEnds;
+    Refined refined;
+    Clock::time_point sixDOFStart{};
+    for (size_t s = 0; s < stages.size(); ++s)
+    {
+      const ScheduledStage& stage = stages[s];
+      this->Progress.Begin(stage.name, stage.progressFrom, stage.progressTo);
+      switch (stage.kind)
+      {
+        case StageKind::PreAlignment:
+        {
+          const Clock::time_point start = Clock::now();
+          const std::clock_t cpuStart = std::clock();
+          this->Result.prealignment = this->PreAlign(stage);
+          this->Result.prealignSeconds = Since(start);
+          this->Result.prealignCPUSeconds = CPUSince(cpuStart);
+          this->Result.prealignCost = this->Cost;
+          break;
+        }
+        case StageKind::Masks:
+        {
+          const Clock::time_point start = Clock::now();
+          const std::clock_t cpuStart = std::clock();
+          this->BuildMasks(this->Result.prealignment.pose);
+          this->Result.maskSeconds = Since(start);
+          this->Result.maskCPUSeconds = CPUSince(cpuStart);
+          break;
+        }
+        case StageKind::Search:
+        {
+          if (!trackEnds[0] && !trackEnds[1])
+            sixDOFStart = Clock::now();
+          std::optional<PoseOptimizerResult>& track = trackEnds[stage.track];
+          const PoseOptimizerResult found = this->Search(stage, track ? track->pose : this->TrackStart(stage.track),
+            stage.stopAtFirstEnd && trackEnds[0] ? &*trackEnds[0] : nullptr);
+          this->Result.evaluations += found.evaluations;
+          track = found;
+          if (s + 1 == stages.size() || stages[s + 1].kind != StageKind::Search)
+          {
+            this->Trace.End();
+            searchEnds = ChooseSearchEnds(*trackEnds[0], trackEnds[1]);
+            this->Result.searchDisagreementMM = searchEnds.disagreement.mm;
+            this->Result.searchDisagreementDegrees = searchEnds.disagreement.degrees;
+            this->Result.searchObjectiveRatio = searchEnds.disagreement.objectiveRatio;
+            for (auto& [divisor, similarity] : this->Searches)
+              this->Result.drrCount += similarity->RenderedDRRs();
+          }
+          break;
+        }
+        case StageKind::Refinement:
+          refined = this->Refine(stage, searchEnds.ends);
+          if (refined.ends.size() == 2)
+          {
+            this->Result.searchDisagreementMM = refined.disagreement.mm;
+            this->Result.searchDisagreementDegrees = refined.disagreement.degrees;
+            this->Result.searchObjectiveRatio = refined.disagreement.objectiveRatio;
+          }
+          break;
+        case StageKind::Polish:
+          refined.ends.front() = this->Polish(stage, refined.ends.front());
+          break;
+        case StageKind::Restarts:
+        {
+          const Restarts restarts = this->Restart(stage, refined.ends.front());
+          this->Result.restartsApartMM = restarts.apartMM;
+          this->Result.restartsApartDegrees = restarts.apartDegrees;
+          break;
+        }
+        case StageKind::Landscape:
+        {
+          const PoseOptimizerResult& end = refined.ends.front();
+          this->MeasureAround(stage, end);
+          this->Result.objective = this->Fine->Evaluate(end.pose);
+          this->Result.drrCount += this->Fine->RenderedDRRs();
+          this->Result.converged = end.converged;
+          this->Result.misalignment = this->AboutIsocenter(end.pose);
+          this->Result.correction = this->Result.misalignment.Inverse();
+          this->Result.mutualInformation = this->Fine->LastMutualInformation();
+          this->Result.fineSeconds = Since(sixDOFStart);
+          break;
+        }
+        case StageKind::Gate:
+        {
+          const Clock::time_point start = Clock::now();
+          const std::clock_t cpuStart = std::clock();
+          const GateOutcome gate = this->Judge(refined);
+          for (size_t v = 0; v < gate.views.size(); ++v)
+          {
+            this->Result.drrs.push_back(this->Fine->LastDRR(v));
+            this->Result.masks.push_back(this->Masked[v].mask);
+            const ViewEvidence& view = gate.views[v];
+            this->Result.explained.push_back(view.explained);
+            this->Result.uncovered.push_back(view.uncovered);
+            this->Result.viewResidualMM.push_back(view.residualMM);
+            this->Result.halvesApartMM.push_back(view.halvesApartMM);
+          }
+          this->Result.failures = gate.failures;
+          this->Result.ok = this->Result.failures.empty();
+          this->Result.gateSeconds = Since(start);
+          this->Result.gateCPUSeconds = CPUSince(cpuStart);
+          break;
+        }
+      }
+    }
+    this->Trace.End();
+    this->Result.objectiveTrace = std::move(this->Trace.Objective);
+    this->Result.stages = std::move(this->Trace.Stages);
+    this->Result.prealignment.pose = this->AboutIsocenter(this->Result.prealignment.pose);
+    this->Progress.Done();
+    return std::move(this->Result);
+  }
+
+private:
+  Pose AboutIsocenter(const Pose& pose) const
+  {
+    return Pose::FromTransform(pose.ToTransform(this->Isocenter), this->RoomIsocenter);
+  }
+  Eigen::Isometry3d CTToRoom(const Pose& pose) const
+  {
+    return MisalignedCTToRoom(this->PlannedCTToRoom, pose, this->Isocenter);
+  }
+  /** The CT the stages at `divisor` render: halved for shrunk images where HalvingFactors allows. */
+  const AttenuationVolume& VolumeFor(int divisor) const
+  {
+    return divisor > 1 && this->HalfVolume ? *this->HalfVolume : this->Volume;
+  }
+  static std::vector<RegistrationView> Shrunk(std::vector<RegistrationView> views, int divisor)
+  {
+    for (int d = divisor; d > 1; d /= 2)
+      views = AtCoarseSize(views, true);
+    return views;
+  }
+  /** A similarity of this registration, its rays cast where the settings say and its cost counted. */
+  std::unique_ptr<StereoSimilarity> Similarity(
+    const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const SimilarityLevels& levels)
+  {
+    auto similarity = std::make_unique<StereoSimilarity>(
+      volume, this->PlannedCTToRoom, this->Isocenter, views, this->Settings.bins, levels);
+    similarity->SetDevice(this->Settings.device);
+    similarity->SetCostSink(&this->Cost);
+    return similarity;
+  }
+  /** Every evaluation of a 6-DOF stage: traced, heard, and counted into `evaluations` when set. */
+  std::function<double(const Pose&)> Traced(StereoSimilarity& similarity, int* evaluations = nullptr)
+  {
+    return [this, &similarity, evaluations](const Pose& p)
+    {
+      const double value = this->Trace.Traced(similarity.Evaluate(p));
+      if (evaluations)
+        ++*evaluations;
+      this->Progress.Evaluated(value);
+      return value;
+    };
+  }
+
+  /** Step 1 (with step 0, the X-rays' ranks): the 5+1-DOF pre-alignment with the user ROIs only,
+   *  at the stage's size. Shrunk images are rendered from a CT halved along each axis whose
+   *  voxels stay fine enough: their pixels are twice as wide, and a ray takes half the samples
+   *  (a CT of thick slices halves its pixels only). */
+  PreAlignmentResult PreAlign(const ScheduledStage& stage)
+  {
+    const StereoRegistrationSettings& settings = this->Settings;
+    const Eigen::Vector3i halving = HalvingFactors(this->Volume, settings.maxHalvedVoxelMM);
+    if (this->Pyramid && halving != Eigen::Vector3i::Ones())
+      this->HalfVolume = std::make_unique<AttenuationVolume>(this->Volume.Halved(halving));
+    const AttenuationVolume& coarseVolume = this->VolumeFor(stage.imageDivisor);
+    if (this->Result.boneOnly && settings.leaveOutBoneCuts)
+      this->CutPoints = CutFacePoints(this->Volume);
+    this->Result.cutFaceVoxels = static_cast<long long>(this->CutPoints.size());
+    std::vector<RegistrationView> startViews = this->InputViews;
+    if (this->Result.boneOnly)
+      AndShadowLessCuts(startViews, coarseVolume, this->CTToRoom(settings.initialPose), settings.boneShadowSearchMarginMM,
+        this->CutPoints, settings.device);
+    if (settings.rankedXRays)
+    {
+      this->Working = RankedXRays(startViews, coarseVolume, this->PlannedCTToRoom, this->Isocenter, settings.initialPose,
+        stage.imageDivisor > 1, settings.device, this->Result.xraySmoothingPixels);
+      this->Result.xrayCorrelation = this->Working.correlation;
+      this->Result.xrayInverted = this->Working.inverted;
+      this->Result.drrCount += this->Working.drrs;
+    }
+    else
+    {
+      this->Working.ranked = startViews;
+      for (const RegistrationView& item : startViews)
+        this->Working.openFieldBright.push_back(item.xray);
+      this->Working.noiseScaled = this->Working.openFieldBright;
+    }
+    this->PreAlignment = this->Similarity(
+      coarseVolume, Shrunk(this->Working.ranked, stage.imageDivisor), { settings.equalizedLevels, 0.0 });
+    PreAlignmentResult prealignment;
+    // A bone's start is already near (a given pose, the previous frame's, or the global search's,
+    // refined on both views at once): the 2D/2D steps, each view alone in a field of other bones,
+    // turned the third metacarpal 25 degrees away from a good start.
+    if (stage.rounds == 0)
+    {
+      prealignment.pose = settings.initialPose;
+      prealignment.objective = this->PreAlignment->Evaluate(settings.initialPose);
+    }
+    else
+      prealignment = xp::PreAlign(*this->PreAlignment, settings.initialPose, this->Isocenter, stage.rounds);
+    this->Result.drrCount += this->PreAlignment->RenderedDRRs();
+    return prealignment;
+  }
+
+  /** Step 2: which CT end faces each view sees anatomy beyond (on the pre-alignment's images), then
+   *  entropy masks AND ROIs AND the CT's coverage at the pre-alignment. */
+  void BuildMasks(const Pose& prealigned)
+  {
+    const StereoRegistrationSettings& settings = this->Settings;
+    this->Coverage = std::make_unique<CTCoverage>(this->Volume, settings.coverageMarginMM);
+    if (settings.coverageMask)
+    {
+      std::vector<std::vector<uint16_t>> asTheyCame;
+      for (const RegistrationView& item : AtCoarseSize(this->InputViews, this->Pyramid))
+        asTheyCame.push_back(item.xray);
+      this->Result.endFaces = MeasureEndFaces(*this->PreAlignment, asTheyCame, prealigned, *this->Coverage,
+        this->CTToRoom(prealigned), settings.coverageMinExcess);
+    }
+    ValidityMasks masks = BuildValidityMasks(this->Working.ranked, this->Working.noiseScaled, settings, *this->Coverage,
+      this->CTToRoom(prealigned), this->Result.endFaces);
+    this->Content = std::move(masks.content);
+    this->Masked = std::move(masks.masked);
+    this->Result.entropyMaps = std::move(masks.entropyMaps);
+    this->Result.validFraction = std::move(masks.validFraction);
+  }
+
+  /** Where a search track starts: the pre-alignment, or (track 1) it moved along the roll/lateral
+   *  valley, which two views see least: a landscape with two optima there cannot give a
+   *  trustworthy result. Two independent starts, not the first end moved: a search from the first
+   *  end can stall on the valley's flat floor short of it. */
+  Pose TrackStart(int track) const
+  {
+    Pose start = this->Result.prealignment.pose;
+    if (track == 1)
+    {
+      start.roll += 1.5;
+      start.translation[0] += 1.5;
+    }
+    return start;
+  }
+
+  /** The similarity the searches at `divisor` maximise: the masked views shrunk, every ray cast
+   *  at quarter size, the search's stride otherwise; no high-pass (the shading helps them travel). */
+  StereoSimilarity& SearchSimilarity(int divisor)
+  {
+    std::unique_ptr<StereoSimilarity>& similarity = this->Searches[divisor];
+    if (!similarity)
+    {
+      const std::vector<RegistrationView> views = Shrunk(this->Masked, divisor);
+      const AttenuationVolume& volume = this->VolumeFor(divisor);
+      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, 0.0, this->CorrelationMM });
+      if (divisor <= 2)
+      {
+        const int stride = this->Settings.searchRenderStride;
+        this->Result.searchRenderStride = stride > 0 ? RenderStride{ stride, stride }
+                                                     : RenderStrideFor(volume, views, this->PlannedCTToRoom, this->Isocenter);
+        similarity->SetRenderStride(this->Result.searchRenderStride);
+      }
+    }
+    return *similarity;
+  }
+
+  /** Step 3a: one search stage from `from`. Track 1's last stage stops once it evaluates a pose
+   *  that agrees with track 0's end (`firstEnd`) about as high: the rest of its travel would only
+   *  polish the same optimum (judged at the size track 0 ended). */
+  PoseOptimizerResult Search(const ScheduledStage& stage, const Pose& from, const PoseOptimizerResult* firstEnd)
+  {
+    this->Trace.Begin(stage.name, stage.imageDivisor);
+    PoseOptimizerSettings optimizer = stage.optimizer;
+    const StereoRegistrationSettings& settings = this->Settings;
+    if (firstEnd)
+      optimizer.stopWhen = [firstEnd, &settings](const Pose& pose, double value)
+      { return Agree(pose, firstEnd->pose, settings) && value >= settings.sameOptimumObjectiveRatio * firstEnd->value; };
+    return MaximizePose(this->Traced(this->SearchSimilarity(stage.imageDivisor)), from, optimizer);
+  }
+
+  /** The ends to refine, better first. Ends far apart matter only when both are about as good;
+   *  a clearly worse end is a local optimum that the better search left behind. */
+  SearchEnds ChooseSearchEnds(PoseOptimizerResult first, std::optional<PoseOptimizerResult> second) const
+  {
+    SearchEnds chosen;
+    chosen.ends = { first.pose };
+    if (!second)
+      return chosen;
+    if (second->value > first.value)
+      std::swap(first, *second);
+    chosen.disagreement = Between(first, *second);
+    chosen.ends = { first.pose };
+    if (!Agree(first.pose, second->pose, this->Settings) && second->value >= this->Settings.refineBothObjectiveRatio * first.value)
+      chosen.ends.push_back(second->pose);
+    return chosen;
+  }
+
+  /**
+   * Step 3b: each end refined at the stage's size on the masks taken again there. The
+   * pre-alignment leaves the angles the views see least a few degrees off (pitch of 3.6 degrees
+   * moves a pelvis CT's end faces 3.5 mm at 56 mm from the isocentre): the coverage is taken again
+   * where the search ended, before the refinement that it would otherwise bias. A stall on the
+   * shrunk images' flatter valley floor comes back at full resolution or shows its lower
+   * objective: only ends that stay apart there and are equally good within ambiguousObjectiveRatio
+   * mean the images do not fix the pose.
+   */
+  Refined Refine(const ScheduledStage& stage, const std::vector<Pose>& ends)
+  {
+    const StereoRegistrationSettings& settings = this->Settings;
+    if (settings.coverageMask)
+    {
+      const Eigen::Isometry3d searched = this->CTToRoom(ends.front());
+      for (size_t v = 0; v < this->Masked.size(); ++v)
+      {
+        RegistrationView& item = this->Masked[v];
+        item.mask = this->Content[v];
+        AndCoverage(item, *this->Coverage, searched, this->Result.endFaces[v].facesToLeaveOut);
+        if (std::count(item.mask.begin(), item.mask.end(), 1) == 0)
+          throw InputError("view " + item.view.name, "the CT covers none of the valid pixels: nothing left to register");
+      }
+    }
+    if (this->Result.boneOnly)
+      AndShadowLessCuts(this->Masked, this->Volume, this->CTToRoom(ends.front()), settings.boneShadowFineMarginMM,
+        this->CutPoints, settings.device);
+    this->Fine = this->Similarity(
+      this->Volume, this->Masked, { settings.equalizedLevels, settings.fineHighPassMM, this->CorrelationMM });
+    this->Result.fineRenderStride = settings.fineRenderStride > 0
+      ? RenderStride{ settings.fineRenderStride, settings.fineRenderStride }
+      : RenderStrideFor(this->Volume, this->Masked, this->PlannedCTToRoom, this->Isocenter);
+    this->Fine->SetRenderStride(this->Result.fineRenderStride);
+    Refined refined;
+    for (size_t e = 0; e < ends.size(); ++e)
+    {
+      const std::string name = e == 0 ? stage.name : stage.name + " from the second search's end";
+      this->Trace.Begin(name, stage.imageDivisor);
+      if (e > 0)
+        this->Progress.Begin(name, stage.progressTo, stage.progressTo + 0.5 * (stage.progressTo - stage.progressFrom));
+      refined.ends.push_back(MaximizePose(this->Traced(*this->Fine), ends[e], stage.optimizer));
+      this->Result.evaluations += refined.ends.back().evaluations;
+    }
+    this->Trace.End();
+    if (refined.ends.size() == 2)
+    {
+      const PoseOptimizerResult &a = refined.ends[0], &b = refined.ends[1];
+      refined.disagreement = Between(a, b);
+      const double worse = std::min(a.value, b.value), better = std::max(a.value, b.value);
+      const bool apart = !(TranslationApart(a.pose, b.pose) <= settings.maxSearchDisagreementMM &&
+        RotationApart(a.pose, b.pose) <= settings.maxRefinedApartDegrees);
+      refined.ambiguous = apart && worse >= settings.ambiguousObjectiveRatio * better;
+      if (b.value > a.value)
+        std::swap(refined.ends[0], refined.ends[1]);
+    }
+    return refined;
+  }
+
+  /** Step 3c: the refinement's small simplex stops on the first bump of a noisy objective near
+   *  where it started; the parabolas span the landscape's 3 mm and 2 degrees and read the peak's
+   *  shape. */
+  PoseOptimizerResult Polish(const ScheduledStage& stage, PoseOptimizerResult end)
+  {
+    this->Trace.Begin(stage.name, stage.imageDivisor);
+    const auto objective = this->Traced(*this->Fine, &this->Result.evaluations);
+    for (int round = 0; round < stage.rounds; ++round)
+    {
+      end.pose = MoveToParabolaVertex(objective, end.pose, end.value, this->Settings.landscapeNearMM, this->Settings.landscapeNearDegrees);
+      end.value = objective(end.pose);
+    }
+    this->Trace.End();
+    return end;
+  }
+
+  /** Step 3c for a bone: refinements from 2 mm and 2 degrees around the result, each axis's sign
+   *  changing from start to start (rotations about the bone's centre): they must all come back. */
+  Restarts Restart(const ScheduledStage& stage, const PoseOptimizerResult& end)
+  {
+    this->Trace.Begin(stage.name, stage.imageDivisor);
+    const auto objective = this->Traced(*this->Fine);
+    Restarts restarts;
+    for (int k = 0; k < stage.rounds; ++k)
+    {
+      std::array<double, 6> p = end.pose.Parameters();
+      for (int a = 0; a < 6; ++a)
+        p[a] += ((k < 2 ? k : a + k) % 2 == 0 ? 2.0 : -2.0);
+      const PoseOptimizerResult again = MaximizePose(objective, Pose::FromParameters(p.data()), stage.optimizer);
+      this->Result.evaluations += again.evaluations;
+      restarts.apartMM = std::max(restarts.apartMM, TranslationApart(again.pose, end.pose));
+      restarts.apartDegrees = std::max(restarts.apartDegrees, RotationApart(again.pose, end.pose));
+    }
+    this->Trace.End();
+    return restarts;
+  }
+
+  /** Step 4a: the landscape around the result (MeasureLandscape) on the refinement's objective
+   *  and on a held-out similarity, and the edges' agreement (MeasureEdges). */
+  void MeasureAround(const ScheduledStage& stage, const PoseOptimizerResult& end)
+  {
+    const StereoRegistrationSettings& settings = this->Settings;
+    this->Trace.Begin(stage.name, stage.imageDivisor);
+    // The ROI and the CT's coverage, without the entropy mask: pixels the optimiser never saw,
+    // but none that no pose of this CT can explain.
+    const Eigen::Isometry3d resultCTToRoom = this->CTToRoom(end.pose);
+    std::vector<RegistrationView> wholeViews;
+    for (size_t v = 0; v < this->Working.ranked.size(); ++v)
+    {
+      RegistrationView item = this->Working.ranked[v];
+      if (item.mask.empty())
+        item.mask.assign(item.xray.size(), 1);
+      if (settings.coverageMask && !this->Result.endFaces.empty())
+        AndCoverage(item, *this->Coverage, resultCTToRoom, this->Result.endFaces[v].facesToLeaveOut);
+      wholeViews.push_back(item);
+    }
+    // Where no ray meets the CT there is only what it does not hold: open field shaded by the
+    // heel effect and scatter, a couch. Beyond the outline's margin that is no evidence about
+    // the pose, and it flattened the peak of a rounded head along roll (Algorithms.md).
+    if (this->Result.boneOnly)
+      AndShadowLessCuts(wholeViews, this->Volume, resultCTToRoom, settings.boneShadowFineMarginMM, this->CutPoints, settings.device);
+    else
+      AndShadow(wholeViews, this->Volume, resultCTToRoom, settings.heldOutShadowMarginMM, settings.device);
+    const int heldOutDivisor = this->Pyramid ? 2 : 1;
+    const std::unique_ptr<StereoSimilarity> heldOut = this->Similarity(this->VolumeFor(heldOutDivisor),
+      Shrunk(wholeViews, heldOutDivisor), { settings.equalizedLevels, settings.heldOutHighPassMM, this->CorrelationMM });
+    const Landscape landscape =
+      MeasureLandscape(this->Traced(*this->Fine, &this->Result.evaluations), *heldOut, end.pose, end.value, settings);
+    this->Result.uncertainty = landscape.uncertainty;
+    this->Result.peakMargin = landscape.peakMargin;
+    this->Result.peakLeads = landscape.peakLeads;
+    this->Result.drrCount += heldOut->RenderedDRRs();
+    // Equalised levels on both sides: the DRR's transmission at 12 bits is quantised where a
+    // thick body lets little through, and its steps would be edges.
+    for (size_t v = 0; v < wholeViews.size(); ++v)
+      wholeViews[v].xray = this->UnsmoothedViews[v].xray;
+    const std::unique_ptr<StereoSimilarity> atFullSize = this->Similarity(this->Volume, wholeViews, { true, 0.0 });
+    const EdgeDistances edges = MeasureEdges(*atFullSize, end.pose, this->Isocenter);
+    this->Result.edgeDistanceMM = edges.mm;
+    this->Result.edgeDistanceShiftedMM = edges.shiftedMM;
+    this->Result.drrCount += atFullSize->RenderedDRRs();
+    this->Trace.End();
+  }
+
+  /** Step 4b: what each view says at the result (MeasureView, one thread per view: each reads only
+   *  its own images), and the gate's verdict on all the evidence. */
+  GateOutcome Judge(const Refined& refined)
+  {
+    const StereoRegistrationSettings& settings = this->Settings;
+    const PoseOptimizerResult& end = refined.ends.front();
+    GateEvidence evidence;
+    evidence.ambiguous = refined.ambiguous;
+    if (this->Result.boneOnly)
+    {
+      evidence.restartsApartMM = this->Result.restartsApartMM;
+      evidence.restartsApartDegrees = this->Result.restartsApartDegrees;
+    }
+    evidence.misalignment = end.pose; // the gate's motion limits: about the same centre as the start
+    evidence.start = settings.initialPose;
+    evidence.converged = end.converged;
+    evidence.stopReason = end.stopReason;
+    evidence.searchApartMM = this->Result.searchDisagreementMM;
+    evidence.searchApartDegrees = this->Result.searchDisagreementDegrees;
+    evidence.uncertainty = this->Result.uncertainty;
+    evidence.peakMargin = this->Result.peakMargin;
+    GateOutcome gate;
+    gate.views.resize(this->Masked.size());
+    vtkSMPTools::For(size_t{ 0 }, this->Masked.size(), size_t{ 1 },
+      [&](size_t first, size_t last)
+      {
+        JointHistogram histogram(settings.bins);
+        for (size_t v = first; v < last; ++v)
+          gate.views[v] = MeasureView(*this->Fine, v, this->Working.openFieldBright[v], this->Isocenter, settings, histogram);
+      });
+    evidence.views = gate.views;
+    gate.failures = CheckQuality(evidence, settings);
+    return gate;
+  }
+
+  const AttenuationVolume& Volume;
+  const Eigen::Isometry3d PlannedCTToRoom;
+  const Eigen::Vector3d RoomIsocenter;
+  Eigen::Vector3d Isocenter; ///< what poses turn about: the room's isocentre, or a bone's centre
+  StereoRegistrationSettings Settings; ///< the requested ones, or a bone's (ForBone)
+  ProgressReporter Progress;
+  SimilarityCost Cost; ///< every similarity's DRRs and times
+  StageTrace Trace;
+  StereoRegistrationResult Result;
+  bool Pyramid = false;
+  double CorrelationMM = 0.0;
+  std::vector<RegistrationView> UnsmoothedViews, InputViews;
+  std::unique_ptr<AttenuationVolume> HalfVolume;
+  std::vector<Eigen::Vector3d> CutPoints;
+  WorkingXRays Working;
+  std::unique_ptr<CTCoverage> Coverage;
+  std::vector<std::vector<uint8_t>> Content; ///< each view's entropy mask AND ROI
+  std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
+  std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
+  std::map<int, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor
+};
+
+} // namespace
+
 StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
   const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& givenViews, const StereoRegistrationSettings& requested,
   const RegistrationObserver& observer)
@@ -766,318 +1276,7 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
           std::to_string(item.view.Rows()) + " panel");
   }
   ValidateGateLimits(requested);
-  StereoRegistrationResult result;
-  result.device = ComputeDeviceDescription(requested.device);
-  result.boneOnly = requested.detectBoneOnly && OuterSurfaceIsBone(volume);
-  // A bone turns about its own centre: about an isocentre some centimetres away, each turn would
-  // also move it, and the optimiser's steps and the landscape's probes would mix the two. Poses
-  // are about the volume's centre at the start inside, and about the isocentre outside.
-  Eigen::Vector3d isocenter = roomIsocenter;
-  StereoRegistrationSettings settings = result.boneOnly ? ForBone(requested, volume) : requested;
-  const std::vector<RegistrationView> unsmoothedViews = settings.medianFilter ? MedianFiltered(givenViews) : givenViews;
-  const std::vector<RegistrationView> inputViews = SmoothedToTheCT(unsmoothedViews, volume, roomIsocenter, settings, result);
-  if (result.boneOnly)
-  {
-    isocenter = MisalignedCTToRoom(plannedCTToRoom, requested.initialPose, roomIsocenter) * volume.IndexToCT() *
-      (0.5 * (volume.Dimensions().cast<double>() - Eigen::Vector3d::Ones()));
-    settings.initialPose = Pose::FromTransform(requested.initialPose.ToTransform(roomIsocenter), isocenter);
-  }
-  const auto aboutIsocenter = [&](const Pose& pose) { return Pose::FromTransform(pose.ToTransform(isocenter), roomIsocenter); };
-  ProgressReporter progress(observer);
-  SimilarityCost cost; // every similarity below adds its DRRs and times here
-  const bool pyramid = settings.pyramid && inputViews[0].view.Columns() >= 256 && inputViews[0].view.Rows() >= 192;
-  const double correlationMM = result.boneOnly ? settings.boneCorrelationHighPassMM : 0.0;
-
-  // 1. Pre-alignment (5+1 DOF) with the user ROIs only. Half-size images are rendered from a
-  // half-resolution CT along each axis whose voxels stay fine enough: their pixels are twice as
-  // wide, and a ray takes half the samples (a CT of thick slices halves its pixels only).
-  Clock::time_point start = Clock::now();
-  std::clock_t cpuStart = std::clock();
-  progress.Begin("pre-alignment", 0.0, 0.1);
-  const Eigen::Vector3i halving = HalvingFactors(volume, settings.maxHalvedVoxelMM);
-  const bool halveCT = pyramid && halving != Eigen::Vector3i::Ones();
-  const AttenuationVolume halfVolume = halveCT ? volume.Halved(halving) : AttenuationVolume();
-  const AttenuationVolume& coarseVolume = halveCT ? halfVolume : volume;
-  result.start = requested.initialPose;
-  std::vector<RegistrationView> shadowed;
-  const std::vector<Eigen::Vector3d> cutPoints =
-    result.boneOnly && settings.leaveOutBoneCuts ? CutFacePoints(volume) : std::vector<Eigen::Vector3d>();
-  result.cutFaceVoxels = static_cast<long long>(cutPoints.size());
-  if (result.boneOnly)
-  {
-    shadowed = inputViews;
-    AndShadowLessCuts(shadowed, coarseVolume, MisalignedCTToRoom(plannedCTToRoom, settings.initialPose, isocenter),
-      settings.boneShadowSearchMarginMM, cutPoints, settings.device);
-  }
-  const std::vector<RegistrationView>& startViews = result.boneOnly ? shadowed : inputViews;
-  WorkingXRays working;
-  if (settings.rankedXRays)
-    working = RankedXRays(startViews, coarseVolume, plannedCTToRoom, isocenter, settings.initialPose, pyramid, settings.device, result);
-  else
-  {
-    working.ranked = startViews;
-    for (const RegistrationView& item : startViews)
-      working.openFieldBright.push_back(item.xray);
-    working.noiseScaled = working.openFieldBright;
-  }
-  const std::vector<RegistrationView>& views = working.ranked;
-  const std::vector<RegistrationView> coarseViews = AtCoarseSize(views, pyramid);
-  StereoSimilarity coarse(coarseVolume, plannedCTToRoom, isocenter, coarseViews, settings.bins, { settings.equalizedLevels, 0.0 });
-  coarse.SetDevice(settings.device);
-  coarse.SetCostSink(&cost);
-  // A bone's start is already near (a given pose, the previous frame's, or the global search's,
-  // refined on both views at once): the 2D/2D steps, each view alone in a field of other bones,
-  // turned the third metacarpal 25 degrees away from a good start.
-  if (result.boneOnly)
-  {
-    result.prealignment.pose = settings.initialPose;
-    result.prealignment.objective = coarse.Evaluate(settings.initialPose);
-  }
-  else
-    result.prealignment = PreAlign(coarse, settings.initialPose, isocenter);
-  result.drrCount += coarse.RenderedDRRs();
-  result.prealignSeconds = Since(start);
-  result.prealignCPUSeconds = CPUSince(cpuStart);
-  result.prealignCost = cost;
-
-  // 2. Entropy masks AND ROIs AND the CT's coverage at the pre-alignment.
-  start = Clock::now();
-  cpuStart = std::clock();
-  const CTCoverage coverage(volume, settings.coverageMarginMM);
-  if (settings.coverageMask)
-  {
-    std::vector<std::vector<uint16_t>> asTheyCame;
-    for (const RegistrationView& item : AtCoarseSize(inputViews, pyramid))
-      asTheyCame.push_back(item.xray);
-    result.endFaces = MeasureEndFaces(coarse, asTheyCame, result.prealignment.pose, coverage,
-      MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), settings.coverageMinExcess);
-  }
-  ValidityMasks masks = BuildValidityMasks(
-    views, working.noiseScaled, settings, coverage, MisalignedCTToRoom(plannedCTToRoom, result.prealignment.pose, isocenter), result);
-  std::vector<RegistrationView>& masked = masks.masked;
-  result.maskSeconds = Since(start);
-  result.maskCPUSeconds = CPUSince(cpuStart);
-
-  // 3. 6-DOF alignment with masked DRRs: the coarse search (half resolution), then each end it
-  // leaves refined at full resolution.
-  start = Clock::now();
-  StageStart stageStart{ cost }; // set by BeginStage
-  std::vector<Pose> searchEnds;
-  {
-    const std::vector<RegistrationView> coarseSearch = AtCoarseSize(masked, pyramid);
-    StereoSimilarity searchSimilarity(coarseVolume, plannedCTToRoom, isocenter, coarseSearch, settings.bins,
-      { settings.equalizedLevels, 0.0, correlationMM });
-    searchSimilarity.SetDevice(settings.device);
-    result.searchRenderStride = settings.searchRenderStride > 0
-      ? RenderStride{ settings.searchRenderStride, settings.searchRenderStride }
-      : RenderStrideFor(coarseVolume, coarseSearch, plannedCTToRoom, isocenter);
-    searchSimilarity.SetRenderStride(result.searchRenderStride);
-    searchSimilarity.SetCostSink(&cost);
-    std::unique_ptr<StereoSimilarity> quarter;
-    if (pyramid && settings.quarterSizeTravel && coarseSearch[0].view.Columns() >= 256 && coarseSearch[0].view.Rows() >= 192)
-    {
-      quarter = std::make_unique<StereoSimilarity>(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(coarseSearch, true),
-        settings.bins, SimilarityLevels{ settings.equalizedLevels, 0.0, correlationMM });
-      quarter->SetDevice(settings.device);
-      quarter->SetCostSink(&cost);
-    }
-    searchEnds =
-      SearchFromTwoStarts(searchSimilarity, quarter.get(), result.prealignment.pose, settings, pyramid, result, progress, stageStart);
-    result.drrCount += searchSimilarity.RenderedDRRs() + (quarter ? quarter->RenderedDRRs() : 0);
-  }
-  // A stall on the half-size images' flatter valley floor comes back at full resolution or shows
-  // its lower objective: only ends that stay apart there and are equally good within
-  // ambiguousObjectiveRatio mean the images do not fix the pose.
-  // The pre-alignment leaves the angles the views see least a few degrees off (pitch of 3.6
-  // degrees moves a pelvis CT's end faces 3.5 mm at 56 mm from the isocentre): the coverage is
-  // taken again where the coarse search ended, before the refinement that it would otherwise bias.
-  if (settings.coverageMask)
-  {
-    const Eigen::Isometry3d searchedCTToRoom = MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter);
-    for (size_t v = 0; v < masked.size(); ++v)
-    {
-      masked[v].mask = masks.content[v];
-      AndCoverage(masked[v], coverage, searchedCTToRoom, result.endFaces[v].facesToLeaveOut);
-      if (std::count(masked[v].mask.begin(), masked[v].mask.end(), 1) == 0)
-        throw InputError("view " + masked[v].view.name, "the CT covers none of the valid pixels: nothing left to register");
-    }
-  }
-  if (result.boneOnly)
-    AndShadowLessCuts(masked, volume, MisalignedCTToRoom(plannedCTToRoom, searchEnds.front(), isocenter),
-      settings.boneShadowFineMarginMM, cutPoints, settings.device);
-  StereoSimilarity fine(volume, plannedCTToRoom, isocenter, masked, settings.bins,
-    { settings.equalizedLevels, settings.fineHighPassMM, correlationMM });
-  fine.SetDevice(settings.device);
-  result.fineRenderStride = settings.fineRenderStride > 0 ? RenderStride{ settings.fineRenderStride, settings.fineRenderStride }
-                                                          : RenderStrideFor(volume, masked, plannedCTToRoom, isocenter);
-  fine.SetRenderStride(result.fineRenderStride);
-  fine.SetCostSink(&cost);
-  const PoseOptimizerSettings fineSettings = RefinementSettings(settings);
-  std::vector<PoseOptimizerResult> refined;
-  for (size_t e = 0; e < searchEnds.size(); ++e)
-  {
-    const char* name = e == 0 ? "fine" : "fine from the second search's end";
-    BeginStage(result, name, stageStart);
-    progress.Begin(name, e == 0 ? 0.7 : 0.85, e == 0 ? 0.85 : 0.95);
-    const auto objective = [&](const Pose& p)
-    {
-      const double value = Traced(result, fine.Evaluate(p));
-      progress.Evaluated(value);
-      return value;
-    };
-    refined.push_back(MaximizePose(objective, searchEnds[e], fineSettings));
-    result.evaluations += refined.back().evaluations;
-  }
-  EndStage(result, stageStart);
-  GateEvidence evidence;
-  if (refined.size() == 2)
-  {
-    RecordDisagreement(result, refined[0], refined[1]);
-    const double worse = std::min(refined[0].value, refined[1].value), better = std::max(refined[0].value, refined[1].value);
-    const bool apart = !(TranslationApart(refined[0].pose, refined[1].pose) <= settings.maxSearchDisagreementMM &&
-      RotationApart(refined[0].pose, refined[1].pose) <= settings.maxRefinedApartDegrees);
-    evidence.ambiguous = apart && worse >= settings.ambiguousObjectiveRatio * better;
-    if (refined[1].value > refined[0].value)
-      std::swap(refined[0], refined[1]);
-  }
-  PoseOptimizerResult& fineResult = refined.front();
-  // The refinement's objective, each evaluation counted: for the polish and the landscape.
-  const auto countedObjective = [&](const Pose& p)
-  {
-    const double value = Traced(result, fine.Evaluate(p));
-    ++result.evaluations;
-    progress.Evaluated(value);
-    return value;
-  };
-  if (!result.boneOnly && settings.vertexPolishRounds > 0)
-  {
-    BeginStage(result, "vertex polish", stageStart);
-    // The refinement's small simplex stops on the first bump of a noisy objective near where it
-    // started; the parabolas span the landscape's 3 mm and 2 degrees and read the peak's shape.
-    for (int round = 0; round < settings.vertexPolishRounds; ++round)
-    {
-      fineResult.pose = MoveToParabolaVertex(
-        countedObjective, fineResult.pose, fineResult.value, settings.landscapeNearMM, settings.landscapeNearDegrees);
-      fineResult.value = countedObjective(fineResult.pose);
-    }
-    EndStage(result, stageStart);
-  }
-  if (result.boneOnly)
-  {
-    // Four refinements from 2 mm and 2 degrees around the result, each axis's sign changing from
-    // start to start (rotations about the bone's centre): they must all come back.
-    BeginStage(result, "restarts", stageStart);
-    evidence.restartsApartMM = evidence.restartsApartDegrees = 0.0;
-    const auto objective = [&](const Pose& p) { return Traced(result, fine.Evaluate(p)); };
-    // Steps of the restarts' own size: the refinement's quarter-millimetre steps polish, they
-    // do not travel 2 mm, and a stall would count as a disagreement of the images.
-    PoseOptimizerSettings restartSettings = fineSettings;
-    restartSettings.initialStepMM = 1.0;
-    restartSettings.initialStepDegrees = 1.0;
-    restartSettings.maxRestarts = 1;
-    // A restart still travelling after 150 evaluations is in a flat valley: it ends where it is,
-    // and that disagreement is the answer (four unbounded ones took 10 s on the metacarpal).
-    restartSettings.maxEvaluations = std::min(restartSettings.maxEvaluations, 150);
-    for (int k = 0; k < 4; ++k)
-    {
-      std::array<double, 6> p = fineResult.pose.Parameters();
-      for (int a = 0; a < 6; ++a)
-        p[a] += ((k < 2 ? k : a + k) % 2 == 0 ? 2.0 : -2.0);
-      const PoseOptimizerResult again = MaximizePose(objective, Pose::FromParameters(p.data()), restartSettings);
-      result.evaluations += again.evaluations;
-      evidence.restartsApartMM = std::max(evidence.restartsApartMM, TranslationApart(again.pose, fineResult.pose));
-      evidence.restartsApartDegrees = std::max(evidence.restartsApartDegrees, RotationApart(again.pose, fineResult.pose));
-    }
-    result.restartsApartMM = evidence.restartsApartMM;
-    result.restartsApartDegrees = evidence.restartsApartDegrees;
-  }
-  BeginStage(result, "landscape", stageStart);
-  progress.Begin("landscape", 0.9, 0.95);
-  {
-    // The ROI and the CT's coverage, without the entropy mask: pixels the optimiser never saw,
-    // but none that no pose of this CT can explain.
-    const Eigen::Isometry3d resultCTToRoom = MisalignedCTToRoom(plannedCTToRoom, fineResult.pose, isocenter);
-    std::vector<RegistrationView> wholeViews;
-    for (size_t v = 0; v < views.size(); ++v)
-    {
-      RegistrationView item = views[v];
-      if (item.mask.empty())
-        item.mask.assign(item.xray.size(), 1);
-      if (settings.coverageMask && !result.endFaces.empty())
-        AndCoverage(item, coverage, resultCTToRoom, result.endFaces[v].facesToLeaveOut);
-      wholeViews.push_back(item);
-    }
-    // Where no ray meets the CT there is only what it does not hold: open field shaded by the
-    // heel effect and scatter, a couch. Beyond the outline's margin that is no evidence about
-    // the pose, and it flattened the peak of a rounded head along roll (Algorithms.md).
-    if (result.boneOnly)
-      AndShadowLessCuts(wholeViews, volume, resultCTToRoom, settings.boneShadowFineMarginMM, cutPoints, settings.device);
-    else
-      AndShadow(wholeViews, volume, resultCTToRoom, settings.heldOutShadowMarginMM, settings.device);
-    StereoSimilarity heldOut(coarseVolume, plannedCTToRoom, isocenter, AtCoarseSize(wholeViews, pyramid), settings.bins,
-      { settings.equalizedLevels, settings.heldOutHighPassMM, correlationMM });
-    heldOut.SetDevice(settings.device);
-    heldOut.SetCostSink(&cost);
-    MeasureLandscape(countedObjective, heldOut, fineResult.pose,
-      fineResult.value, settings, result);
-    // Equalised levels on both sides: the DRR's transmission at 12 bits is quantised where a
-    // thick body lets little through, and its steps would be edges.
-    for (size_t v = 0; v < wholeViews.size(); ++v)
-      wholeViews[v].xray = unsmoothedViews[v].xray;
-    StereoSimilarity atFullSize(volume, plannedCTToRoom, isocenter, wholeViews, settings.bins, { true, 0.0 });
-    atFullSize.SetDevice(settings.device);
-    atFullSize.SetCostSink(&cost);
-    MeasureEdges(atFullSize, fineResult.pose, isocenter, result);
-    result.drrCount += atFullSize.RenderedDRRs();
-  }
-  EndStage(result, stageStart);
-  result.objective = fine.Evaluate(fineResult.pose);
-  result.drrCount += fine.RenderedDRRs();
-  result.converged = fineResult.converged;
-  result.misalignment = aboutIsocenter(fineResult.pose);
-  result.correction = result.misalignment.Inverse();
-  result.mutualInformation = fine.LastMutualInformation();
-  result.fineSeconds = Since(start);
-
-  // 4. Quality gate, on what each view says at the result.
-  progress.Begin("quality gate", 0.95, 1.0);
-  const Clock::time_point gateStart = Clock::now();
-  const std::clock_t gateCPUStart = std::clock();
-  evidence.misalignment = fineResult.pose; // the gate's motion limits: about the same centre as the start
-  evidence.start = settings.initialPose;
-  evidence.converged = fineResult.converged;
-  evidence.stopReason = fineResult.stopReason;
-  evidence.searchApartMM = result.searchDisagreementMM;
-  evidence.searchApartDegrees = result.searchDisagreementDegrees;
-  evidence.uncertainty = result.uncertainty;
-  evidence.peakMargin = result.peakMargin;
-  // Each view's checks read only its own images: one thread each.
-  std::vector<ViewEvidence> measured(masked.size());
-  vtkSMPTools::For(size_t{ 0 }, masked.size(), size_t{ 1 },
-    [&](size_t first, size_t last)
-    {
-      JointHistogram histogram(settings.bins);
-      for (size_t v = first; v < last; ++v)
-        measured[v] = MeasureView(fine, v, working.openFieldBright[v], isocenter, settings, histogram);
-    });
-  for (size_t v = 0; v < masked.size(); ++v)
-  {
-    result.drrs.push_back(fine.LastDRR(v));
-    result.masks.push_back(masked[v].mask);
-    const ViewEvidence& view = measured[v];
-    result.explained.push_back(view.explained);
-    result.uncovered.push_back(view.uncovered);
-    result.viewResidualMM.push_back(view.residualMM);
-    result.halvesApartMM.push_back(view.halvesApartMM);
-    evidence.views.push_back(view);
-  }
-  result.failures = CheckQuality(evidence, settings);
-  result.prealignment.pose = aboutIsocenter(result.prealignment.pose);
-  result.ok = result.failures.empty();
-  result.gateSeconds = Since(gateStart);
-  result.gateCPUSeconds = CPUSince(gateCPUStart);
-  progress.Done();
-  return result;
+  return StereoRegistrationRun(volume, plannedCTToRoom, roomIsocenter, givenViews, requested, observer).Run();
 }
 
 } // namespace xp

@@ -13,6 +13,7 @@
 #include "xpPoseOptimizer.h"
 #include "xpPreAlignment.h"
 #include "xpQualityGate.h"
+#include "xpRegistrationSchedule.h"
 #include "xpStereoSimilarity.h"
 
 #include <array>
@@ -183,7 +184,7 @@ struct StereoRegistrationSettings
   double maxUncertaintyDegrees = 1.5;
 };
 
-/** Where a stage of the 6-DOF search starts in the objective trace. */
+/** Where a stage of the 6-DOF search starts in the objective trace, and what it cost. */
 struct RegistrationStage
 {
   std::string name;
@@ -191,6 +192,8 @@ struct RegistrationStage
   double seconds = 0.0; ///< wall time of the stage
   SimilarityCost cost;  ///< its DRRs, rays, rendering and metric time
   double cpuSeconds = 0.0; ///< CPU time of the process's threads during the stage
+  int evaluations = 0;   ///< its stereo similarity evaluations in the trace
+  int imageDivisor = 1;  ///< its images' size: the registration's divided by this per side
 };
 
 struct StereoRegistrationResult
@@ -243,8 +246,9 @@ struct StereoRegistrationResult
   double peakMargin = 0.0;               ///< least lead of the result over its translated held-out neighbours
   /** Each neighbour's lead: axis a (tx, ty, tz, pitch, roll, yaw) at -step in [2a], +step in [2a + 1]. */
   std::array<double, 12> peakLeads{};
-    std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
+  std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace
+  RegistrationSchedule schedule;         ///< the stages as they were scheduled (MakeSchedule)
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0;
   /** CPU time of the process's threads in those steps, and the quality gate's wall and CPU time
    *  (its per-view checks): with the wall time, how busy the cores were. */
@@ -271,6 +275,18 @@ VTKXPREGISTRATION_EXPORT bool OuterSurfaceIsBone(const AttenuationVolume& volume
 /** Per index axis of the CT, 2 where twice its spacing is at most `maxHalvedVoxelMM`, else 1:
  *  the factors AttenuationVolume::Halved takes for the half-size stages. */
 VTKXPREGISTRATION_EXPORT Eigen::Vector3i HalvingFactors(const AttenuationVolume& volume, double maxHalvedVoxelMM);
+
+/**
+ * The stages a registration with `settings` runs: pre-alignment, masks, the searches (track 0
+ * from the pre-alignment, track 1 the robustness search, each on half-size images, or on quarter
+ * then half with quarterSizeTravel), the refinement, the polish (or a bone's restarts), the
+ * landscape and the gate. `pyramid`: the images are at least 256x192 and settings.pyramid is on
+ * (else every stage runs at the registration's size); `quarter`: the quarter-size images would be
+ * at least 128x96; `boneOnly`: the volume is a bone (OuterSurfaceIsBone), with `settings` already
+ * the bone's.
+ */
+VTKXPREGISTRATION_EXPORT RegistrationSchedule MakeSchedule(
+  const StereoRegistrationSettings& settings, bool pyramid, bool quarter, bool boneOnly);
 
 /**
  * Registers a CT to stereo X-rays. `views` carry the X-rays (any bit depth, row 0 first) and, in

@@ -33,6 +33,12 @@ xp::RegistrationRecord FailedRecord()
   result.fineRenderStride = { 1, 3 };
   result.evaluations = 600;
   result.stages = { { "coarse search", 0, 1.5 }, { "fine", 400, 2.25 } };
+  result.stages[1].evaluations = 150;
+  result.stages[1].imageDivisor = 1;
+  result.stages[0].imageDivisor = 2;
+  result.schedule = xp::MakeSchedule(xp::StereoRegistrationSettings{}, true, true, false);
+  result.prealignment.iterations = 3;
+  result.prealignment.drrs = 40;
   result.objectiveTrace = { 0.1, 0.3, 0.7 };
   xp::RegistrationRecord record = xp::MakeRegistrationRecord(result, { "left", "right" });
   record.totalSeconds = 4.5;
@@ -75,6 +81,27 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_DOUBLE_EQ(read.totalSeconds, 4.5);
   ASSERT_EQ(read.stages.size(), 2u);
   EXPECT_EQ(read.stages[1].firstEvaluation, 400);
+  EXPECT_EQ(read.stages[1].evaluations, 150);
+  EXPECT_EQ(read.stages[0].imageDivisor, 2);
+  EXPECT_EQ(read.prealignIterations, 3);
+  EXPECT_EQ(read.prealignDRRs, 40);
+  ASSERT_EQ(read.schedule.stages.size(), written.schedule.stages.size());
+  for (size_t s = 0; s < read.schedule.stages.size(); ++s)
+  {
+    const xp::ScheduledStage &a = read.schedule.stages[s], &b = written.schedule.stages[s];
+    EXPECT_EQ(a.kind, b.kind) << b.name;
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.imageDivisor, b.imageDivisor) << b.name;
+    EXPECT_EQ(a.track, b.track) << b.name;
+    EXPECT_EQ(a.stopAtFirstEnd, b.stopAtFirstEnd) << b.name;
+    EXPECT_EQ(a.rounds, b.rounds) << b.name;
+    if (b.kind == xp::StageKind::Search || b.kind == xp::StageKind::Refinement)
+    {
+      EXPECT_DOUBLE_EQ(a.optimizer.toleranceMM, b.optimizer.toleranceMM) << b.name;
+      EXPECT_DOUBLE_EQ(a.optimizer.initialStepDegrees, b.optimizer.initialStepDegrees) << b.name;
+      EXPECT_EQ(a.optimizer.maxEvaluations, b.optimizer.maxEvaluations) << b.name;
+    }
+  }
   EXPECT_EQ(read.objectiveTrace, written.objectiveTrace);
   ASSERT_TRUE(read.inputs.has_value());
   EXPECT_EQ(read.inputs->xrays, in.xrays);

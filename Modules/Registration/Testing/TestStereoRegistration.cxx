@@ -651,6 +651,82 @@ TEST(StereoRegistration, CostsAreAccountedPerStage)
   EXPECT_LE(staged, result.drrCount);
 }
 
+// The schedule is the registration's plan: its stages in order, each at its size and within its
+// budget; the trace's stages are the 6-DOF ones that ran, their evaluations adding up to the total.
+TEST(RegistrationSchedule, ListsTheMethodsStagesInOrder)
+{
+  using K = xp::StageKind;
+  xp::StereoRegistrationSettings settings;
+  const auto kinds = [](const xp::RegistrationSchedule& schedule)
+  {
+    std::vector<K> out;
+    for (const xp::ScheduledStage& stage : schedule.stages)
+      out.push_back(stage.kind);
+    return out;
+  };
+  const xp::RegistrationSchedule body = xp::MakeSchedule(settings, true, true, false);
+  EXPECT_EQ(kinds(body), (std::vector<K>{ K::PreAlignment, K::Masks, K::Search, K::Search, K::Refinement, K::Polish,
+                           K::Landscape, K::Gate }));
+  EXPECT_EQ(body.stages[0].imageDivisor, 2) << "the pre-alignment at half size";
+  EXPECT_EQ(body.stages[0].rounds, 6);
+  EXPECT_EQ(body.stages[2].track, 0);
+  EXPECT_EQ(body.stages[3].track, 1);
+  EXPECT_FALSE(body.stages[2].stopAtFirstEnd);
+  EXPECT_TRUE(body.stages[3].stopAtFirstEnd) << "the robustness search stops on the first one's optimum";
+  EXPECT_EQ(body.stages[2].imageDivisor, 2);
+  EXPECT_EQ(body.stages[4].imageDivisor, 1) << "the refinement at the registration's size";
+  EXPECT_LT(body.stages[4].optimizer.toleranceMM, body.stages[2].optimizer.toleranceMM);
+  for (size_t s = 1; s < body.stages.size(); ++s)
+    EXPECT_GE(body.stages[s].progressFrom, body.stages[s - 1].progressTo - 1e-12) << body.stages[s].name;
+
+  const xp::RegistrationSchedule small = xp::MakeSchedule(settings, false, false, false);
+  EXPECT_EQ(small.stages[2].imageDivisor, 1) << "no pyramid under 256x192";
+  EXPECT_EQ(small.stages[2].name, "coarse search");
+
+  settings.quarterSizeTravel = true;
+  const xp::RegistrationSchedule travel = xp::MakeSchedule(settings, true, true, false);
+  ASSERT_EQ(travel.stages.size(), body.stages.size() + 2);
+  EXPECT_EQ(travel.stages[2].imageDivisor, 4);
+  EXPECT_EQ(travel.stages[3].imageDivisor, 2);
+  EXPECT_EQ(travel.stages[3].track, 0);
+  EXPECT_DOUBLE_EQ(travel.stages[3].optimizer.initialStepMM, 0.25 * travel.stages[2].optimizer.initialStepMM);
+  EXPECT_EQ(xp::MakeSchedule(settings, true, false, false).stages.size(), body.stages.size()) << "no quarter under 512x384";
+
+  settings.quarterSizeTravel = false;
+  settings.maxSearchDisagreementMM = 0.0;
+  EXPECT_EQ(kinds(xp::MakeSchedule(settings, true, true, false)),
+    (std::vector<K>{ K::PreAlignment, K::Masks, K::Search, K::Refinement, K::Polish, K::Landscape, K::Gate }));
+
+  const xp::RegistrationSchedule bone = xp::MakeSchedule(xp::StereoRegistrationSettings{}, true, true, true);
+  EXPECT_EQ(bone.stages[0].rounds, 0) << "a bone's start is evaluated, not pre-aligned";
+  EXPECT_EQ(bone.stages[5].kind, K::Restarts);
+  EXPECT_EQ(bone.stages[5].rounds, 4);
+  EXPECT_LE(bone.stages[5].optimizer.maxEvaluations, 150);
+  EXPECT_NE(xp::DescribeSchedule(body).find("refinement"), std::string::npos);
+}
+
+TEST(RegistrationSchedule, TheTraceCountsEachStagesEvaluationsAtItsSize)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), SimulateKV(scene, truth, 5, 256, 192));
+  ASSERT_FALSE(result.schedule.stages.empty());
+  EXPECT_EQ(result.schedule.stages.front().kind, xp::StageKind::PreAlignment);
+  int total = 0;
+  for (size_t s = 0; s < result.stages.size(); ++s)
+  {
+    const xp::RegistrationStage& stage = result.stages[s];
+    const int next = s + 1 < result.stages.size() ? result.stages[s + 1].firstEvaluation : static_cast<int>(result.objectiveTrace.size());
+    EXPECT_EQ(stage.evaluations, next - stage.firstEvaluation) << stage.name;
+    EXPECT_EQ(stage.imageDivisor, stage.name.find("coarse search") != std::string::npos ? 2 : 1) << stage.name;
+    total += stage.evaluations;
+  }
+  EXPECT_EQ(total, result.evaluations);
+  EXPECT_EQ(total, static_cast<int>(result.objectiveTrace.size()));
+  EXPECT_GT(result.prealignment.iterations, 0);
+}
+
 // At 512x384 and quarterSizeTravel the coarse searches travel on 128x96 images and end at
 // 256x192: the travel casts fewer rays per evaluation than the search's end, and the pose is as
 // accurate. By default there is no such stage.
