@@ -195,6 +195,10 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   for (const std::string& travel : options.travels)
     if (travel != "half" && travel != "quarter")
       throw InputError("--travels", "'" + travel + "' is neither half nor quarter");
+  if (options.schedules.empty())
+    throw InputError("--schedules", "name at least one of standard, economy");
+  for (const std::string& schedule : options.schedules)
+    ParseScheduleChoice(schedule, "--schedules");
   std::vector<std::pair<int, int>> strides;
   for (const std::string& text : options.renderStrides)
     strides.push_back(ParseRenderStrides(text));
@@ -238,7 +242,9 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   for (const std::string& optimizer : options.optimizers)
     for (size_t k = 0; k < strides.size(); ++k)
       for (const std::string& travel : options.travels)
+        for (const std::string& schedule : options.schedules)
       {
+        settings.registration.schedule = ParseScheduleChoice(schedule, "--schedules");
         SetOptimizers(optimizer, settings.registration, "--optimizers");
         settings.registration.searchRenderStride = strides[k].first;
         settings.registration.fineRenderStride = strides[k].second;
@@ -247,9 +253,11 @@ int RunBenchRegister(const BenchRegisterOptions& options)
           ? optimizer + ", strides " + options.renderStrides[k] : optimizer;
         if (options.travels.size() > 1 || travel != "half")
           name += ", " + travel + " travel";
+        if (options.schedules.size() > 1 || schedule != "standard")
+          name += ", " + schedule + " schedule";
         AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
         // The folder only carries the records: a fresh one per variant, removed afterwards.
-        std::string folderName = optimizer + "-" + std::to_string(k) + "-" + travel;
+        std::string folderName = optimizer + "-" + std::to_string(k) + "-" + travel + "-" + schedule;
         std::replace(folderName.begin(), folderName.end(), '/', '+');
         const std::filesystem::path directory = scratch / folderName;
         std::filesystem::remove_all(directory);

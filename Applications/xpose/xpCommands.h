@@ -93,6 +93,9 @@ struct BenchRegisterOptions
   /** The coarse searches' travel compared: "half" (the default) and/or "quarter"
    *  (StereoRegistrationSettings::quarterSizeTravel), each with every other variant. */
   std::vector<std::string> travels{ "half" };
+  /** The schedules compared: "standard" and/or "economy" (StereoRegistrationSettings::schedule),
+   *  each with every other variant. */
+  std::vector<std::string> schedules{ "standard" };
   unsigned seed = 11;
   double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
   int threads = 0;

@@ -59,6 +59,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"fine_render_stride\": " << o.settings.fineRenderStride
        << ",\n  \"search_render_stride\": " << o.settings.searchRenderStride
        << ",\n  \"quarter_size_travel\": " << (o.settings.quarterSizeTravel ? "true" : "false")
+       << ",\n  \"schedule\": \"" << ScheduleChoiceName(o.settings.schedule) << "\""
        << ",\n  \"vertex_polish_rounds\": " << o.settings.vertexPolishRounds
        << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
        << ",\n  \"coverage_min_excess\": " << o.settings.coverageMinExcess

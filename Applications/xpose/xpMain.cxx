@@ -32,6 +32,13 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--quarter-size-travel", settings.quarterSizeTravel,
     "The coarse searches travel on quarter-size images first, then end at half size (when the quarter is at least 128x96; searches 0.52x the time, but more false failed and three matrix cells over 0.05 mm worse: Performance.md)")
     ->capture_default_str();
+  command
+    ->add_option_function<std::string>(
+      "--schedule", [&settings](const std::string& name) { settings.schedule = xp::ParseScheduleChoice(name, "--schedule"); },
+      "The registration's schedule of searches and refinement: standard, or economy (fewer evaluations; not yet judged on "
+      "the whole generalisation matrix: Algorithms.md, \"The schedule\")")
+    ->check(CLI::IsMember({ "standard", "economy" }))
+    ->default_str("standard");
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds of moving the refinement's end to the vertex of the objective's parabola along each axis, through its values "
     "1.5 mm and 1 degree either side (0: off)")->capture_default_str();
@@ -178,6 +185,9 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
   benchRegister->add_option("--travels", reg.travels,
       "The coarse searches' travel compared: half (the default) and/or quarter (register's --quarter-size-travel true), "
       "each with every other variant")
+    ->capture_default_str();
+  benchRegister->add_option("--schedules", reg.schedules,
+      "The schedules compared: standard and/or economy (register's --schedule), each with every other variant")
     ->capture_default_str();
   benchRegister->add_option("--seed", reg.seed, "Seed of the trials and the noise")->capture_default_str();
   benchRegister->add_option("--min-start-translation", reg.minTranslation, "Smallest start error drawn: translation, mm (not the gate's --max-translation)")->capture_default_str();

@@ -1,5 +1,6 @@
 #include "xpRegistrationSchedule.h"
 
+#include "xpError.h"
 #include "xpStereoRegistration.h"
 
 #include <algorithm>
@@ -22,6 +23,20 @@ const char* StageKindName(StageKind kind)
     case StageKind::Gate: return "gate";
   }
   return "?";
+}
+
+ScheduleChoice ParseScheduleChoice(const std::string& name, const std::string& field)
+{
+  if (name == "standard")
+    return ScheduleChoice::Standard;
+  if (name == "economy")
+    return ScheduleChoice::Economy;
+  throw InputError(field, "'" + name + "' is not a schedule: standard or economy");
+}
+
+const char* ScheduleChoiceName(ScheduleChoice choice)
+{
+  return choice == ScheduleChoice::Economy ? "economy" : "standard";
 }
 
 namespace
@@ -109,6 +124,31 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
 
   ScheduledStage refinement = Stage(StageKind::Refinement, "fine", 1, 0.7, 0.8);
   refinement.optimizer = RefinementOptimizer(settings);
+  if (settings.schedule == ScheduleChoice::Economy)
+  {
+    // The searches end where the refinement's first simplex reaches: at twice the standard
+    // tolerances, after one restart; the robustness search travels on quarter-size images (a
+    // fifth of the rays) within 60 evaluations, since it only has to show whether another
+    // optimum as high lies along the valley; the refinement stops at 0.1 mm and 0.05 degree,
+    // twice the standard, and the polish reads the peak's shape after it.
+    for (ScheduledStage& stage : stages)
+    {
+      if (stage.kind != StageKind::Search)
+        continue;
+      stage.optimizer.maxRestarts = 1;
+      stage.optimizer.toleranceMM = 0.2;
+      stage.optimizer.toleranceDegrees = 0.1;
+      if (stage.track == 1)
+      {
+        stage.imageDivisor = pyramid && quarter ? 4 : stage.imageDivisor;
+        stage.optimizer.maxEvaluations = std::min(stage.optimizer.maxEvaluations, 60);
+        if (stage.imageDivisor == 4)
+          stage.name = "second coarse search (quarter resolution)";
+      }
+    }
+    refinement.optimizer.toleranceMM = 0.1;
+    refinement.optimizer.toleranceDegrees = 0.05;
+  }
   stages.push_back(refinement);
   if (boneOnly)
   {

@@ -16,6 +16,17 @@
 namespace xp
 {
 
+/** Which schedule a registration runs (MakeSchedule). */
+enum class ScheduleChoice
+{
+  Standard, ///< the searches and refinement as the accuracy tables were measured with
+  Economy   ///< fewer evaluations: looser searches, a robustness search at quarter size, a looser refinement
+};
+
+/** "standard", "economy"; throws xp::InputError naming `field` otherwise. */
+VTKXPREGISTRATION_EXPORT ScheduleChoice ParseScheduleChoice(const std::string& name, const std::string& field);
+VTKXPREGISTRATION_EXPORT const char* ScheduleChoiceName(ScheduleChoice choice);
+
 /** What a stage of the registration does (RegisterStereo runs them in the schedule's order). */
 enum class StageKind
 {
@@ -47,6 +58,10 @@ struct ScheduledStage
   /** Searches, refinement and restarts: the optimiser, its first steps, its stop on change (mm,
    *  degrees) and its evaluation budget. */
   PoseOptimizerSettings optimizer;
+  /** Searches: shading wider than this (mm on the panel) removed from both images' ranks, as the
+   *  refinement does (StereoRegistrationSettings::fineHighPassMM); 0: kept, which helps a search
+   *  travel. */
+  double highPassMM = 0.0;
   /** Track 1's last stage stops at the first pose that agrees with track 0's end, about as high. */
   bool stopAtFirstEnd = false;
   int rounds = 0; ///< pre-alignment: most iterations; polish: rounds; restarts: how many

@@ -360,6 +360,14 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
   return masks;
 }
 
+/** Per axis, the pose `step` along it (mm for tx, ty, tz; degrees for pitch, roll, yaw) from `center`. */
+Pose Moved(const Pose& center, int axis, double step)
+{
+  std::array<double, 6> p = center.Parameters();
+  p[axis] += step;
+  return Pose::FromParameters(p.data());
+}
+
 /**
  * Step 4a: the landscape around the result. Per axis, the refinement's objective at poses
  * `landscapeNear` either side gives its curvature c = (2 f0 - f+ - f-) / h^2, and the uncertainty
@@ -375,42 +383,41 @@ ValidityMasks BuildValidityMasks(const std::vector<RegistrationView>& views,
  * head's held-out peak along roll by more than the 1.5 degree probe while its result is right to
  * 0.3 degree (Algorithms.md, "A verdict...", 2).
  */
-struct Landscape
+std::array<double, 6> MeasureUncertainty(
+  const std::function<double(const Pose&)>& objective, const Pose& result, double atResult, const StereoRegistrationSettings& settings)
 {
-  std::array<double, 6> uncertainty{}; ///< StereoRegistrationResult::uncertainty
-  double peakMargin = 0.0;
-  std::array<double, 12> peakLeads{};
-};
-
-Landscape MeasureLandscape(const std::function<double(const Pose&)>& objective, StereoSimilarity& heldOut, const Pose& result,
-  double atResult, const StereoRegistrationSettings& settings)
-{
-  Landscape out;
-  const std::array<double, 6> center = result.Parameters();
-  const auto moved = [&](int axis, double step)
-  {
-    std::array<double, 6> p = center;
-    p[axis] += step;
-    return Pose::FromParameters(p.data());
-  };
+  std::array<double, 6> uncertainty{};
   for (int a = 0; a < 6; ++a)
   {
     const double h = a < 3 ? settings.landscapeNearMM : settings.landscapeNearDegrees;
-    const double below = objective(moved(a, -h)), above = objective(moved(a, h));
+    const double below = objective(Moved(result, a, -h)), above = objective(Moved(result, a, h));
     const double curvature = (2.0 * atResult - below - above) / (h * h);
     const bool peak = atResult >= below && atResult >= above && curvature > 0.0 && atResult > 0.0;
-    out.uncertainty[a] = peak ? std::sqrt(0.1 * atResult / curvature) : std::numeric_limits<double>::infinity();
+    uncertainty[a] = peak ? std::sqrt(0.1 * atResult / curvature) : std::numeric_limits<double>::infinity();
   }
-  const double check = heldOut.Evaluate(result);
-  out.peakMargin = std::numeric_limits<double>::infinity();
+  return uncertainty;
+}
+
+/** Step 4a, second half: the result's leads over its neighbours on the held-out similarity. */
+struct PeakLeads
+{
+  double margin = 0.0;           ///< StereoRegistrationResult::peakMargin
+  std::array<double, 12> leads{}; ///< StereoRegistrationResult::peakLeads
+};
+
+PeakLeads MeasurePeakLeads(const std::function<double(const Pose&)>& heldOut, const Pose& result, const StereoRegistrationSettings& settings)
+{
+  PeakLeads out;
+  const double check = heldOut(result);
+  out.margin = std::numeric_limits<double>::infinity();
   for (int a = 0; a < 6; ++a)
     for (double sign : { -1.0, 1.0 })
     {
-      const double neighbour = heldOut.Evaluate(moved(a, sign * (a < 3 ? settings.landscapeCheckMM : settings.landscapeCheckDegrees)));
+      const double neighbour = heldOut(Moved(result, a, sign * (a < 3 ? settings.landscapeCheckMM : settings.landscapeCheckDegrees)));
       const double lead = check > 0.0 ? (check - neighbour) / check : -1.0;
-      out.peakLeads[2 * a + (sign > 0.0 ? 1 : 0)] = lead;
+      out.leads[2 * a + (sign > 0.0 ? 1 : 0)] = lead;
       if (a < 3 || settings.heldOutJudgesTurns)
-        out.peakMargin = std::min(out.peakMargin, lead);
+        out.margin = std::min(out.margin, lead);
     }
   return out;
 }
@@ -428,10 +435,11 @@ struct EdgeDistances
   std::vector<double> mm, shiftedMM; ///< StereoRegistrationResult::edgeDistanceMM, edgeDistanceShiftedMM
 };
 
-EdgeDistances MeasureEdges(StereoSimilarity& atFullSize, const Pose& pose, const Eigen::Vector3d& isocenter)
+EdgeDistances MeasureEdges(
+  const std::function<double(const Pose&)>& evaluate, StereoSimilarity& atFullSize, const Pose& pose, const Eigen::Vector3d& isocenter)
 {
   EdgeDistances result;
-  atFullSize.Evaluate(pose);
+  evaluate(pose); // atFullSize's DRRs at the pose
   for (size_t v = 0; v < atFullSize.Views().size(); ++v)
   {
     const RegistrationView& item = atFullSize.Views()[v];
@@ -764,6 +772,8 @@ public:
   {
     const std::vector<ScheduledStage>& stages = this->Result.schedule.stages;
     std::array<std::optional<PoseOptimizerResult>, 2> trackEnds;
+    /** The images (divisor) and high-pass each track's end was measured on. */
+    std::array<std::pair<int, double>, 2> trackMeasure{};
     SearchEnds searchEnds;
     Refined refined;
     Clock::time_point sixDOFStart{};
@@ -797,10 +807,19 @@ public:
           if (!trackEnds[0] && !trackEnds[1])
             sixDOFStart = Clock::now();
           std::optional<PoseOptimizerResult>& track = trackEnds[stage.track];
+          if (stage.stopAtFirstEnd && trackEnds[0] && trackMeasure[0] != std::make_pair(stage.imageDivisor, stage.highPassMM))
+          {
+            // Track 0 ended on other images: its end's objective on this stage's, to compare with.
+            this->Trace.Begin(stage.name + " (the first end at its size)", stage.imageDivisor);
+            trackEnds[0]->value =
+              this->Traced(this->SearchSimilarity(stage.imageDivisor, stage.highPassMM), &this->Result.evaluations)(trackEnds[0]->pose);
+            trackMeasure[0] = { stage.imageDivisor, stage.highPassMM };
+          }
           const PoseOptimizerResult found = this->Search(stage, track ? track->pose : this->TrackStart(stage.track),
             stage.stopAtFirstEnd && trackEnds[0] ? &*trackEnds[0] : nullptr);
           this->Result.evaluations += found.evaluations;
           track = found;
+          trackMeasure[stage.track] = { stage.imageDivisor, stage.highPassMM };
           if (s + 1 == stages.size() || stages[s + 1].kind != StageKind::Search)
           {
             this->Trace.End();
@@ -836,7 +855,6 @@ public:
         {
           const PoseOptimizerResult& end = refined.ends.front();
           this->MeasureAround(stage, end);
-          this->Result.objective = this->Fine->Evaluate(end.pose);
           this->Result.drrCount += this->Fine->RenderedDRRs();
           this->Result.converged = end.converged;
           this->Result.misalignment = this->AboutIsocenter(end.pose);
@@ -1008,14 +1026,14 @@ private:
 
   /** The similarity the searches at `divisor` maximise: the masked views shrunk, every ray cast
    *  at quarter size, the search's stride otherwise; no high-pass (the shading helps them travel). */
-  StereoSimilarity& SearchSimilarity(int divisor)
+  StereoSimilarity& SearchSimilarity(int divisor, double highPassMM = 0.0)
   {
-    std::unique_ptr<StereoSimilarity>& similarity = this->Searches[divisor];
+    std::unique_ptr<StereoSimilarity>& similarity = this->Searches[{ divisor, highPassMM }];
     if (!similarity)
     {
       const std::vector<RegistrationView> views = Shrunk(this->Masked, divisor);
       const AttenuationVolume& volume = this->VolumeFor(divisor);
-      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, 0.0, this->CorrelationMM });
+      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, highPassMM, this->CorrelationMM });
       if (divisor <= 2)
       {
         const int stride = this->Settings.searchRenderStride;
@@ -1038,7 +1056,7 @@ private:
     if (firstEnd)
       optimizer.stopWhen = [firstEnd, &settings](const Pose& pose, double value)
       { return Agree(pose, firstEnd->pose, settings) && value >= settings.sameOptimumObjectiveRatio * firstEnd->value; };
-    return MaximizePose(this->Traced(this->SearchSimilarity(stage.imageDivisor)), from, optimizer);
+    return MaximizePose(this->Traced(this->SearchSimilarity(stage.imageDivisor, stage.highPassMM)), from, optimizer);
   }
 
   /** The ends to refine, better first. Ends far apart matter only when both are about as good;
@@ -1182,21 +1200,24 @@ private:
     const int heldOutDivisor = this->Pyramid ? 2 : 1;
     const std::unique_ptr<StereoSimilarity> heldOut = this->Similarity(this->VolumeFor(heldOutDivisor),
       Shrunk(wholeViews, heldOutDivisor), { settings.equalizedLevels, settings.heldOutHighPassMM, this->CorrelationMM });
-    const Landscape landscape =
-      MeasureLandscape(this->Traced(*this->Fine, &this->Result.evaluations), *heldOut, end.pose, end.value, settings);
-    this->Result.uncertainty = landscape.uncertainty;
-    this->Result.peakMargin = landscape.peakMargin;
-    this->Result.peakLeads = landscape.peakLeads;
+    this->Result.uncertainty = MeasureUncertainty(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value, settings);
+    this->Trace.Begin("held-out check", heldOutDivisor);
+    const PeakLeads leads = MeasurePeakLeads(this->Traced(*heldOut, &this->Result.evaluations), end.pose, settings);
+    this->Result.peakMargin = leads.margin;
+    this->Result.peakLeads = leads.leads;
     this->Result.drrCount += heldOut->RenderedDRRs();
     // Equalised levels on both sides: the DRR's transmission at 12 bits is quantised where a
     // thick body lets little through, and its steps would be edges.
     for (size_t v = 0; v < wholeViews.size(); ++v)
       wholeViews[v].xray = this->UnsmoothedViews[v].xray;
+    this->Trace.Begin("at the result", 1);
     const std::unique_ptr<StereoSimilarity> atFullSize = this->Similarity(this->Volume, wholeViews, { true, 0.0 });
-    const EdgeDistances edges = MeasureEdges(*atFullSize, end.pose, this->Isocenter);
+    const EdgeDistances edges = MeasureEdges(this->Traced(*atFullSize, &this->Result.evaluations), *atFullSize, end.pose, this->Isocenter);
     this->Result.edgeDistanceMM = edges.mm;
     this->Result.edgeDistanceShiftedMM = edges.shiftedMM;
     this->Result.drrCount += atFullSize->RenderedDRRs();
+    // The refinement's objective and DRRs at the result: what the gate reads.
+    this->Result.objective = this->Traced(*this->Fine, &this->Result.evaluations)(end.pose);
     this->Trace.End();
   }
 
@@ -1254,7 +1275,7 @@ private:
   std::vector<std::vector<uint8_t>> Content; ///< each view's entropy mask AND ROI
   std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
   std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
-  std::map<int, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor
+  std::map<std::pair<int, double>, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor and high-pass
 };
 
 } // namespace

@@ -705,6 +705,67 @@ TEST(RegistrationSchedule, ListsTheMethodsStagesInOrder)
   EXPECT_NE(xp::DescribeSchedule(body).find("refinement"), std::string::npos);
 }
 
+TEST(RegistrationSchedule, TheEconomySearchesLooserAndTheRobustnessSearchAtQuarterSize)
+{
+  xp::StereoRegistrationSettings settings;
+  settings.schedule = xp::ScheduleChoice::Economy;
+  const xp::RegistrationSchedule standard = xp::MakeSchedule(xp::StereoRegistrationSettings{}, true, true, false);
+  const xp::RegistrationSchedule economy = xp::MakeSchedule(settings, true, true, false);
+  ASSERT_EQ(economy.stages.size(), standard.stages.size());
+  for (size_t s = 0; s < economy.stages.size(); ++s)
+  {
+    const xp::ScheduledStage &e = economy.stages[s], &d = standard.stages[s];
+    EXPECT_EQ(e.kind, d.kind);
+    if (e.kind == xp::StageKind::Search || e.kind == xp::StageKind::Refinement)
+    {
+      EXPECT_GT(e.optimizer.toleranceMM, d.optimizer.toleranceMM) << e.name;
+      EXPECT_GT(e.optimizer.toleranceDegrees, d.optimizer.toleranceDegrees) << e.name;
+    }
+    if (e.kind == xp::StageKind::Search)
+    {
+      EXPECT_LT(e.optimizer.maxRestarts, d.optimizer.maxRestarts) << e.name;
+      EXPECT_EQ(e.imageDivisor, e.track == 1 ? 4 : 2) << e.name;
+      EXPECT_LE(e.optimizer.maxEvaluations, e.track == 1 ? 60 : d.optimizer.maxEvaluations) << e.name;
+    }
+  }
+  EXPECT_EQ(xp::MakeSchedule(settings, true, false, false).stages[3].imageDivisor, 2) << "no quarter size under 512x384";
+  EXPECT_EQ(xp::ParseScheduleChoice("economy", "--schedule"), xp::ScheduleChoice::Economy);
+  try
+  {
+    xp::ParseScheduleChoice("fast", "--schedule");
+    FAIL() << "an unknown schedule is refused";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("--schedule"), std::string::npos) << e.what();
+  }
+}
+
+// The economy schedule finds the same pose with fewer evaluations; its robustness search, on
+// other images than the first search ended on, measures the first end there before comparing.
+TEST(RegistrationSchedule, TheEconomyScheduleFindsThePoseWithFewerEvaluations)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 512, 384);
+  xp::StereoRegistrationSettings economy;
+  economy.schedule = xp::ScheduleChoice::Economy;
+  const xp::StereoRegistrationResult fewer = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, economy);
+  const xp::StereoRegistrationResult standard = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  EXPECT_TRUE(fewer.ok) << (fewer.Reasons().empty() ? "" : fewer.Reasons().front());
+  EXPECT_LT((fewer.misalignment.translation - truth.translation).norm(), 0.5);
+  EXPECT_NEAR(fewer.misalignment.yaw, truth.yaw, 0.3);
+  EXPECT_LT(fewer.evaluations, standard.evaluations);
+  bool quarter = false, firstEndMeasured = false;
+  for (const xp::RegistrationStage& stage : fewer.stages)
+  {
+    quarter |= stage.name == "second coarse search (quarter resolution)" && stage.imageDivisor == 4;
+    firstEndMeasured |= stage.name.find("(the first end at its size)") != std::string::npos && stage.evaluations == 1;
+  }
+  EXPECT_TRUE(quarter);
+  EXPECT_TRUE(firstEndMeasured);
+}
+
 TEST(RegistrationSchedule, TheTraceCountsEachStagesEvaluationsAtItsSize)
 {
   Scene scene;
@@ -719,11 +780,19 @@ TEST(RegistrationSchedule, TheTraceCountsEachStagesEvaluationsAtItsSize)
     const xp::RegistrationStage& stage = result.stages[s];
     const int next = s + 1 < result.stages.size() ? result.stages[s + 1].firstEvaluation : static_cast<int>(result.objectiveTrace.size());
     EXPECT_EQ(stage.evaluations, next - stage.firstEvaluation) << stage.name;
-    EXPECT_EQ(stage.imageDivisor, stage.name.find("coarse search") != std::string::npos ? 2 : 1) << stage.name;
+    const bool halfSize = stage.name.find("coarse search") != std::string::npos || stage.name == "held-out check";
+    EXPECT_EQ(stage.imageDivisor, halfSize ? 2 : 1) << stage.name;
     total += stage.evaluations;
   }
   EXPECT_EQ(total, result.evaluations);
   EXPECT_EQ(total, static_cast<int>(result.objectiveTrace.size()));
+  // The landscape's, the held-out check's and the result's own evaluations are counted too.
+  for (const char* name : { "landscape", "held-out check", "at the result" })
+  {
+    const auto stage = std::find_if(result.stages.begin(), result.stages.end(), [&](const xp::RegistrationStage& s) { return s.name == name; });
+    ASSERT_NE(stage, result.stages.end()) << name;
+    EXPECT_EQ(stage->evaluations, std::string(name) == "landscape" ? 12 : std::string(name) == "held-out check" ? 13 : 2) << name;
+  }
   EXPECT_GT(result.prealignment.iterations, 0);
 }
 
