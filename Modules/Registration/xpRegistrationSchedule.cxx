@@ -101,7 +101,8 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
   travel.toleranceDegrees = 2.0 * search.toleranceDegrees;
   afterTravel.initialStepMM = 0.25 * search.initialStepMM;
   afterTravel.initialStepDegrees = 0.25 * search.initialStepDegrees;
-  const bool travels = pyramid && quarter && settings.quarterSizeTravel;
+  const bool economy = settings.schedule == ScheduleChoice::Economy;
+  const bool travels = pyramid && quarter && (settings.quarterSizeTravel || economy);
   const int tracks = settings.maxSearchDisagreementMM > 0.0 ? 2 : 1;
   for (int track = 0; track < tracks; ++track)
   {
@@ -124,30 +125,29 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
 
   ScheduledStage refinement = Stage(StageKind::Refinement, "fine", 1, 0.7, 0.8);
   refinement.optimizer = RefinementOptimizer(settings);
-  if (settings.schedule == ScheduleChoice::Economy)
+  if (economy)
   {
-    // The searches end where the refinement's first simplex reaches: at twice the standard
-    // tolerances, after one restart; the robustness search travels on quarter-size images (a
-    // fifth of the rays) within 60 evaluations, since it only has to show whether another
-    // optimum as high lies along the valley; the refinement stops at 0.1 mm and 0.05 degree,
-    // twice the standard, and the polish reads the peak's shape after it.
+    // Fewer evaluations: both searches travel on quarter-size images (a fifth of a half-size
+    // pair's rays) where the images allow, restart once, and end at half size at twice the
+    // standard tolerances, where the refinement's first simplex reaches; the robustness search's
+    // end at half size within 60 evaluations, since it stops as soon as it meets the first one's
+    // optimum; the refinement stops at 0.1 mm and 0.05 degree (twice the standard), and the polish
+    // reads the peak's shape after it.
     for (ScheduledStage& stage : stages)
     {
       if (stage.kind != StageKind::Search)
         continue;
       stage.optimizer.maxRestarts = 1;
-      stage.optimizer.toleranceMM = 0.2;
-      stage.optimizer.toleranceDegrees = 0.1;
-      if (stage.track == 1)
+      if (stage.imageDivisor != 4)
       {
-        stage.imageDivisor = pyramid && quarter ? 4 : stage.imageDivisor;
-        stage.optimizer.maxEvaluations = std::min(stage.optimizer.maxEvaluations, 60);
-        if (stage.imageDivisor == 4)
-          stage.name = "second coarse search (quarter resolution)";
+        stage.optimizer.toleranceMM = 2.0 * search.toleranceMM;
+        stage.optimizer.toleranceDegrees = 2.0 * search.toleranceDegrees;
       }
+      if (stage.stopAtFirstEnd)
+        stage.optimizer.maxEvaluations = std::min(stage.optimizer.maxEvaluations, 60);
     }
-    refinement.optimizer.toleranceMM = 0.1;
-    refinement.optimizer.toleranceDegrees = 0.05;
+    refinement.optimizer.toleranceMM = 2.0 * refinement.optimizer.toleranceMM;
+    refinement.optimizer.toleranceDegrees = 2.0 * refinement.optimizer.toleranceDegrees;
   }
   stages.push_back(refinement);
   if (boneOnly)

@@ -49,6 +49,7 @@ int vtkXPRegistrationSession::Run()
     xp::StereoRegistrationSettings settings;
     settings.entropyMask = this->EntropyMask;
     settings.device = xp::ChooseComputeDevice(this->Device).device;
+    settings.schedule = xp::ParseScheduleChoice(this->Schedule, "--schedule");
     xp::SetOptimizers(this->Optimizer, settings, "optimizer");
     xp::CheckRegistrationSettings(settings);
     settings.initialPose = xp::Pose::FromParameters(this->InitialPose);

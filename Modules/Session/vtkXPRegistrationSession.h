@@ -65,6 +65,9 @@ public:
   /** Where the rays are cast (--device): "cpu" (the default), "cuda" (refused by Run where no GPU
    *  can run it) or "auto". */
   void SetDevice(const std::string& device) { this->Device = device; }
+  /** The registration's schedule (--schedule): "standard" (the default) or "economy"; anything
+   *  else is refused by Run. */
+  void SetSchedule(const std::string& schedule) { this->Schedule = schedule; }
 
   /**
    * Reads the inputs, registers, and keeps the result: 1 when it is ok (the couch may be moved by
@@ -98,6 +101,7 @@ private:
   std::string Optimizer = "nelder-mead";
   bool EntropyMask = true;
   std::string Device = "cpu";
+  std::string Schedule = "standard";
   std::unique_ptr<xp::RegistrationSession> Session;
   std::string LastError;
 };

@@ -56,6 +56,10 @@ assert refused.GetResultJSON() == "" and not refused.WriteResultFolder(f"{work}/
 # A device that is no device is refused by name, before any file is read.
 refused.SetDevice("gpu")
 assert refused.Run() == -1 and "--device" in refused.GetLastError(), refused.GetLastError()
+# So is a schedule that is no schedule.
+refused.SetDevice("cpu")
+refused.SetSchedule("fast")
+assert refused.Run() == -1 and "--schedule" in refused.GetLastError(), refused.GetLastError()
 
 def without_times(record):
     record.pop("timing_s")
