@@ -867,19 +867,7 @@ public:
         {
           const Clock::time_point start = Clock::now();
           const std::clock_t cpuStart = std::clock();
-          const GateOutcome gate = this->Judge(refined);
-          for (size_t v = 0; v < gate.views.size(); ++v)
-          {
-            this->Result.drrs.push_back(this->Fine->LastDRR(v));
-            this->Result.masks.push_back(this->Masked[v].mask);
-            const ViewEvidence& view = gate.views[v];
-            this->Result.explained.push_back(view.explained);
-            this->Result.uncovered.push_back(view.uncovered);
-            this->Result.viewResidualMM.push_back(view.residualMM);
-            this->Result.halvesApartMM.push_back(view.halvesApartMM);
-          }
-          this->Result.failures = gate.failures;
-          this->Result.ok = this->Result.failures.empty();
+          this->Keep(this->Judge(refined));
           this->Result.gateSeconds = Since(start);
           this->Result.gateCPUSeconds = CPUSince(cpuStart);
           break;
@@ -1219,6 +1207,23 @@ private:
     // The refinement's objective and DRRs at the result: what the gate reads.
     this->Result.objective = this->Traced(*this->Fine, &this->Result.evaluations)(end.pose);
     this->Trace.End();
+  }
+
+  /** The gate's reading in the result, with each view's DRR and mask at the result. */
+  void Keep(const GateOutcome& gate)
+  {
+    for (size_t v = 0; v < gate.views.size(); ++v)
+    {
+      this->Result.drrs.push_back(this->Fine->LastDRR(v));
+      this->Result.masks.push_back(this->Masked[v].mask);
+      const ViewEvidence& view = gate.views[v];
+      this->Result.explained.push_back(view.explained);
+      this->Result.uncovered.push_back(view.uncovered);
+      this->Result.viewResidualMM.push_back(view.residualMM);
+      this->Result.halvesApartMM.push_back(view.halvesApartMM);
+    }
+    this->Result.failures = gate.failures;
+    this->Result.ok = this->Result.failures.empty();
   }
 
   /** Step 4b: what each view says at the result (MeasureView, one thread per view: each reads only
