@@ -58,11 +58,8 @@ struct ScheduledStage
   /** Searches, refinement and restarts: the optimiser, its first steps, its stop on change (mm,
    *  degrees) and its evaluation budget. */
   PoseOptimizerSettings optimizer;
-  /** Searches: shading wider than this (mm on the panel) removed from both images' ranks, as the
-   *  refinement does (StereoRegistrationSettings::fineHighPassMM); 0: kept, which helps a search
-   *  travel. */
-  double highPassMM = 0.0;
-  /** Track 1's last stage stops at the first pose that agrees with track 0's end, about as high. */
+  /** Track 1's last stage stops at the first pose that agrees with track 0's end, about as high;
+   *  it searches the images track 0 ended on, so that the two ends' objectives compare. */
   bool stopAtFirstEnd = false;
   int rounds = 0; ///< pre-alignment: most iterations; polish: rounds; restarts: how many
   double progressFrom = 0.0, progressTo = 1.0; ///< its share of the progress reported

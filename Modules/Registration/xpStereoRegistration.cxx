@@ -772,8 +772,6 @@ public:
   {
     const std::vector<ScheduledStage>& stages = this->Result.schedule.stages;
     std::array<std::optional<PoseOptimizerResult>, 2> trackEnds;
-    /** The images (divisor) and high-pass each track's end was measured on. */
-    std::array<std::pair<int, double>, 2> trackMeasure{};
     SearchEnds searchEnds;
     Refined refined;
     Clock::time_point sixDOFStart{};
@@ -807,19 +805,10 @@ public:
           if (!trackEnds[0] && !trackEnds[1])
             sixDOFStart = Clock::now();
           std::optional<PoseOptimizerResult>& track = trackEnds[stage.track];
-          if (stage.stopAtFirstEnd && trackEnds[0] && trackMeasure[0] != std::make_pair(stage.imageDivisor, stage.highPassMM))
-          {
-            // Track 0 ended on other images: its end's objective on this stage's, to compare with.
-            this->Trace.Begin(stage.name + " (the first end at its size)", stage.imageDivisor);
-            trackEnds[0]->value =
-              this->Traced(this->SearchSimilarity(stage.imageDivisor, stage.highPassMM), &this->Result.evaluations)(trackEnds[0]->pose);
-            trackMeasure[0] = { stage.imageDivisor, stage.highPassMM };
-          }
           const PoseOptimizerResult found = this->Search(stage, track ? track->pose : this->TrackStart(stage.track),
             stage.stopAtFirstEnd && trackEnds[0] ? &*trackEnds[0] : nullptr);
           this->Result.evaluations += found.evaluations;
           track = found;
-          trackMeasure[stage.track] = { stage.imageDivisor, stage.highPassMM };
           if (s + 1 == stages.size() || stages[s + 1].kind != StageKind::Search)
           {
             this->Trace.End();
@@ -1014,14 +1003,14 @@ private:
 
   /** The similarity the searches at `divisor` maximise: the masked views shrunk, every ray cast
    *  at quarter size, the search's stride otherwise; no high-pass (the shading helps them travel). */
-  StereoSimilarity& SearchSimilarity(int divisor, double highPassMM = 0.0)
+  StereoSimilarity& SearchSimilarity(int divisor)
   {
-    std::unique_ptr<StereoSimilarity>& similarity = this->Searches[{ divisor, highPassMM }];
+    std::unique_ptr<StereoSimilarity>& similarity = this->Searches[divisor];
     if (!similarity)
     {
       const std::vector<RegistrationView> views = Shrunk(this->Masked, divisor);
       const AttenuationVolume& volume = this->VolumeFor(divisor);
-      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, highPassMM, this->CorrelationMM });
+      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, 0.0, this->CorrelationMM });
       if (divisor <= 2)
       {
         const int stride = this->Settings.searchRenderStride;
@@ -1044,7 +1033,7 @@ private:
     if (firstEnd)
       optimizer.stopWhen = [firstEnd, &settings](const Pose& pose, double value)
       { return Agree(pose, firstEnd->pose, settings) && value >= settings.sameOptimumObjectiveRatio * firstEnd->value; };
-    return MaximizePose(this->Traced(this->SearchSimilarity(stage.imageDivisor, stage.highPassMM)), from, optimizer);
+    return MaximizePose(this->Traced(this->SearchSimilarity(stage.imageDivisor)), from, optimizer);
   }
 
   /** The ends to refine, better first. Ends far apart matter only when both are about as good;
@@ -1280,7 +1269,7 @@ private:
   std::vector<std::vector<uint8_t>> Content; ///< each view's entropy mask AND ROI
   std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
   std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
-  std::map<std::pair<int, double>, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor and high-pass
+  std::map<int, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor
 };
 
 } // namespace

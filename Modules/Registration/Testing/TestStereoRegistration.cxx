@@ -736,6 +736,15 @@ TEST(RegistrationSchedule, TheEconomyTravelsAtQuarterSizeAndStopsLooser)
     }
   }
   EXPECT_EQ(quarter, 2);
+  // Each track's last stage on the same images: the two ends' objectives compare.
+  for (const xp::RegistrationSchedule* schedule : { &standard, &economy })
+  {
+    int lastDivisor[2] = { 0, 0 };
+    for (const xp::ScheduledStage& stage : schedule->stages)
+      if (stage.kind == xp::StageKind::Search)
+        lastDivisor[stage.track] = stage.imageDivisor;
+    EXPECT_EQ(lastDivisor[0], lastDivisor[1]);
+  }
   EXPECT_EQ(xp::MakeSchedule(settings, true, false, false).stages.size(), standard.stages.size()) << "no quarter size under 512x384";
   EXPECT_EQ(xp::ParseScheduleChoice("economy", "--schedule"), xp::ScheduleChoice::Economy);
   try
