@@ -21,6 +21,7 @@ namespace
 {
 
 constexpr double UnitTolerance = 1e-3;
+constexpr int LatestFormatVersion = 2;
 
 std::string Where(const std::string& origin, const std::string& field)
 {
@@ -95,6 +96,30 @@ XRayView ParseView(const Json::Value& imager, const std::string& origin, const s
   }
   view.size = size.cast<int>();
   return view;
+}
+
+CouchDescription ParseCouch(const Json::Value& object, const std::string& origin)
+{
+  if (!object.isObject())
+    throw InputError(Where(origin, "couch"), "expected an object");
+  for (const std::string& key : object.getMemberNames())
+    if (key != "motions" && key != "rotation_limit_deg" && key != "rotation_center")
+      throw InputError(Where(origin, "couch." + key), "unknown (a couch has motions, rotation_limit_deg and rotation_center)");
+  CouchDescription couch;
+  const Json::Value& motions = Member(object, "motions", origin, "couch.motions");
+  if (!motions.isString())
+    throw InputError(Where(origin, "couch.motions"), "expected \"6dof\" or \"4dof\"");
+  couch.motions = ParseCouchMotions(motions.asString(), Where(origin, "couch.motions"));
+  if (object.isMember("rotation_limit_deg"))
+  {
+    const Json::Value& limit = object["rotation_limit_deg"];
+    if (!limit.isNumeric() || !std::isfinite(limit.asDouble()) || limit.asDouble() < 0.0 || limit.asDouble() > 180.0)
+      throw InputError(Where(origin, "couch.rotation_limit_deg"), "expected a number of degrees from 0 to 180 (pitch and roll, each way)");
+    couch.pitchRollLimitDegrees = limit.asDouble();
+  }
+  if (object.isMember("rotation_center"))
+    couch.rotationCenter = Vector<3>(object["rotation_center"], origin, "couch.rotation_center");
+  return couch;
 }
 
 Json::Value ToJson(const Eigen::VectorXd& v)
@@ -222,6 +247,25 @@ StereoGeometry ParseStereoGeometry(const std::string& jsonText, const std::strin
   {
     geometry.isocenter = Vector<3>(root["isocenter"], origin, "isocenter");
   }
+  int version = 1;
+  if (root.isMember("format_version"))
+  {
+    const Json::Value& value = root["format_version"];
+    if (!value.isInt() || value.asInt() < 1 || value.asInt() > LatestFormatVersion)
+    {
+      Json::StreamWriterBuilder writer;
+      writer["indentation"] = "";
+      throw InputError(Where(origin, "format_version"), "unknown version " + Json::writeString(writer, value) +
+          ": this xpose reads versions 1 and " + std::to_string(LatestFormatVersion));
+    }
+    version = value.asInt();
+  }
+  if (root.isMember("couch"))
+  {
+    if (version < 2)
+      throw InputError(Where(origin, "couch"), "a couch needs \"format_version\": 2 (a file without one is version 1)");
+    geometry.couch = ParseCouch(root["couch"], origin);
+  }
   const Json::Value& imagers = Member(root, "imagers", origin, "imagers");
   if (!imagers.isArray())
   {
@@ -250,6 +294,8 @@ StereoGeometry ReadStereoGeometry(const std::string& path)
 std::string FormatStereoGeometry(const StereoGeometry& geometry)
 {
   Json::Value root(Json::objectValue);
+  if (geometry.couch)
+    root["format_version"] = LatestFormatVersion;
   root["name"] = geometry.name;
   root["isocenter"] = ToJson(geometry.isocenter);
   Json::Value imagers(Json::arrayValue);
@@ -271,6 +317,16 @@ std::string FormatStereoGeometry(const StereoGeometry& geometry)
     imagers.append(imager);
   }
   root["imagers"] = imagers;
+  if (geometry.couch)
+  {
+    Json::Value couch(Json::objectValue);
+    couch["motions"] = CouchMotionsName(geometry.couch->motions);
+    if (std::isfinite(geometry.couch->pitchRollLimitDegrees))
+      couch["rotation_limit_deg"] = geometry.couch->pitchRollLimitDegrees;
+    if (geometry.couch->rotationCenter)
+      couch["rotation_center"] = ToJson(*geometry.couch->rotationCenter);
+    root["couch"] = couch;
+  }
   Json::StreamWriterBuilder writer;
   writer["indentation"] = "  ";
   writer["precision"] = 17;

@@ -1,10 +1,14 @@
 /**
  * @file xpStereoGeometry.h
- * @brief The room's X-ray system: isocentre and imagers, and its JSON file (GEOMETRY.md).
+ * @brief The room's X-ray system: isocentre, imagers and couch, and its JSON file (GEOMETRY.md).
+ *
+ * The file's `format_version` is 1 when absent (isocentre and imagers) and 2 with a `couch`
+ * object; a version this reader does not know is refused.
  */
 #ifndef xpStereoGeometry_h
 #define xpStereoGeometry_h
 
+#include "xpCouch.h"
 #include "xpXRayView.h"
 
 #include <string>
@@ -18,6 +22,9 @@ struct VTKXPGEOMETRY_EXPORT StereoGeometry
   std::string name;
   Eigen::Vector3d isocenter = Eigen::Vector3d::Zero(); ///< Room mm
   std::vector<XRayView> views;
+  /** The treatment couch (format_version 2); none: a file of version 1, whose couch is read as
+   *  6-DOF without limits about the isocentre. */
+  std::optional<CouchDescription> couch;
 
   /** The view called `name`, or nullptr. */
   const XRayView* FindView(const std::string& viewName) const;
