@@ -6,6 +6,7 @@
 #include "xpArchiveAccess.h"
 #include "xpDIMSEArchive.h"
 #include "xpError.h"
+#include "xpRegistrationRecord.h"
 #include "xpStereoGeometry.h"
 #include "xpStorageNode.h"
 #include "xpXRayGeometryTags.h"
@@ -126,8 +127,16 @@ public:
     registration.dicomOutputDirectory = out + "/dicom";
     LogLine("study " + studyUID + ": registering pair " + std::to_string(count) + " into " + out);
     const int code = GuardedRun("listen", [&] { return RunRegister(registration); });
+    std::string couch;
+    if (code == ExitOk)
+    {
+      const RegistrationRecord record = ReadRegistrationRecord(out + "/result.json");
+      if (record.couch)
+        couch = "; couch " + record.couch->Summary();
+    }
     LogLine("study " + studyUID + ": pair " + std::to_string(count) +
-      (code == ExitOk ? " ok" : code == ExitRegistrationFailed ? " FAILED (do not apply)" : " not registered (error above)"));
+      (code == ExitOk ? " ok" : code == ExitRegistrationFailed ? " FAILED (do not apply)" : " not registered (error above)") +
+      couch);
     if (code == ExitOk && !this->Options.forward.empty())
     {
       const DIMSEArchive destination(this->Options.forward, this->Options.aet, ArchiveAccess());
@@ -152,6 +161,8 @@ int RunListen(const ListenOptions& options)
   if (options.outputDirectory.empty())
     throw InputError("--out-dir", "is required");
   CheckRegistrationSettings(options.registration.settings);
+  options.registration.couch.levels.Validate();
+  ResolveCouch(ReadStereoGeometry(options.registration.geometry), options.registration.couch);
   UseDevice(options.registration.device); // checked before serving, not at the first study
   StudyRegistrar registrar(options);
   StorageNodeSettings settings;

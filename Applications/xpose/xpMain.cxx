@@ -232,6 +232,27 @@ CLI::App* AddSimulateCommand(CLI::App& app, xp::SimulateOptions& options)
   return simulateCommand;
 }
 
+/** The couch that carries out an ok result, the target and the clinic's action levels
+ *  (Coordinates.md, "The couch"): each overrides the geometry file's couch. */
+void AddCouchOptions(CLI::App* command, xp::CouchOptions& couch)
+{
+  command->add_option("--couch", couch.motions,
+    "The couch's motions: 6dof or 4dof (translations and yaw); default: the geometry file's couch, else 6dof");
+  command->add_option("--couch-rotation-limit", couch.rotationLimit,
+    "The largest pitch and roll the couch turns, each way, degrees (default: the geometry file's, else none)");
+  command->add_option("--target", couch.target,
+    "The CT point x,y,z (LPS mm) the couch motion puts back exactly (default: the planned isocentre)");
+  command->add_option("--action-level-mm", couch.levels.actionMM,
+    "No move is needed when the couch motion is within this translation and --action-level-deg (0: every motion is a move)")
+    ->capture_default_str();
+  command->add_option("--action-level-deg", couch.levels.actionDegrees, "No move is needed within this rotation and --action-level-mm")
+    ->capture_default_str();
+  command->add_option("--max-uncorrected-mm", couch.levels.maxUncorrectedMM,
+    "Set the patient up again when what the couch cannot correct moves a point 100 mm from the target farther (default: none)");
+  command->add_option("--max-uncorrected-deg", couch.levels.maxUncorrectedDegrees,
+    "Set the patient up again when the couch leaves a larger rotation uncorrected, degrees (default: none)");
+}
+
 /** What register and track share: the volume, the geometry, where to start, the method and the gate. */
 void AddRegistrationOptions(CLI::App* command, xp::RegisterOptions& options)
 {
@@ -258,6 +279,7 @@ void AddRegistrationOptions(CLI::App* command, xp::RegisterOptions& options)
   command->add_option("--max-rotation", options.settings.maxRotation, "Gate: largest accepted correction, degrees")
     ->capture_default_str();
   AddGateOptions(command, options.settings);
+  AddCouchOptions(command, options.couch);
   command->add_option("--threads", options.threads, "Threads (0: all cores)");
   command->add_option("--device", options.device, DeviceHelp)->capture_default_str();
 }
@@ -280,7 +302,7 @@ CLI::App* AddListenCommand(CLI::App& app, xp::ListenOptions& options)
     "A DICOM storage node: register each study's CT and X-ray pair as they arrive, send the REG on");
   AddRegistrationOptions(listen, options.registration);
   // Its inputs arrive over the network; a volume's own options make no sense here.
-  for (const char* name : { "--ct", "--series", "--voxel-size", "--global-search", "--initial-pose" })
+  for (const char* name : { "--ct", "--series", "--voxel-size", "--global-search", "--initial-pose", "--target" })
     listen->remove_option(listen->get_option(name));
   listen->add_option("--port", options.port, "TCP port to serve DICOM on")->required();
   listen->add_option("--aet", options.aet, "The node's AE title (the called AE title senders use)")->capture_default_str();

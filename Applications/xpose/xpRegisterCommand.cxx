@@ -151,13 +151,16 @@ RegisterOptions FetchFromArchive(const RegisterOptions& options, const DICOMArch
   return local;
 }
 
-void PrintResult(const StereoRegistrationResult& result, double totalSeconds, const std::string& outputDirectory)
+void PrintResult(const RegistrationRecord& record, const std::string& outputDirectory)
 {
-  std::printf("\n%s\nmisalignment: %s\ncorrection:   %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); apply the "
-              "correction to the table only when status is ok)\nDRRs: %lld, evaluations: %d, total %.2f s; result.json in %s\n",
-    result.ok ? "status: ok" : "status: FAILED", result.misalignment.ToString().c_str(),
-    result.correction.ToString().c_str(), result.drrCount, result.evaluations, totalSeconds, outputDirectory.c_str());
-  for (const std::string& reason : result.Reasons())
+  std::printf("\n%s\nmisalignment:  %s\n6-DOF correction: %s\n(IEC 61217 fixed, R = Rz(yaw) Ry(roll) Rx(pitch); move "
+              "the couch only when status is ok)\n",
+    record.ok ? "status: ok" : "status: FAILED", record.misalignment.ToString().c_str(), record.correction.ToString().c_str());
+  if (record.couch)
+    std::printf("%s\n  action: %s\n", record.couch->Describe().c_str(), record.couch->actionReason.c_str());
+  std::printf("DRRs: %lld, evaluations: %d, total %.2f s; result.json in %s\n", record.drrCount, record.evaluations,
+    record.totalSeconds, outputDirectory.c_str());
+  for (const std::string& reason : record.Reasons())
     std::printf("  reason: %s\n", reason.c_str());
 }
 
@@ -165,6 +168,9 @@ void PrintResult(const StereoRegistrationResult& result, double totalSeconds, co
 
 int RunRegister(const RegisterOptions& options)
 {
+  // The couch options, checked before anything is fetched or read (the target, against the CT).
+  options.couch.levels.Validate();
+  ResolveCouch(StereoGeometry{}, options.couch);
   if (!options.pacs.empty())
   {
     const std::unique_ptr<DICOMArchive> opened =
@@ -223,7 +229,7 @@ int RunRegister(const RegisterOptions& options)
   // The command's own clock: its checks of options and outputs count too.
   session.SetTimes(readSeconds, Since(start));
   WriteRegistrationFolder(session, options.outputDirectory);
-  PrintResult(result, session.Record().totalSeconds, options.outputDirectory);
+  PrintResult(session.Record(), options.outputDirectory);
   if (!options.reportDirectory.empty())
   {
     ReportOptions report;

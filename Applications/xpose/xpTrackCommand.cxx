@@ -71,6 +71,9 @@ int RunTrack(const TrackOptions& options)
   // edges to the X-ray's, and the same with the DRR moved 3 mm (what chance gives).
   for (size_t v = 0; v < frames.front().size(); ++v)
     csv << ",edge_distance_" << static_cast<char>('a' + v) << "_mm,edge_distance_moved_" << static_cast<char>('a' + v) << "_mm";
+  // Then the couch motion of an ok frame (empty for a failed one): result.json's `couch`.
+  csv << ",couch_action,couch_tx_mm,couch_ty_mm,couch_tz_mm,couch_pitch_deg,couch_roll_deg,couch_yaw_deg,"
+         "uncorrected_pitch_deg,uncorrected_roll_deg,uncorrected_yaw_deg,couch_limited_by";
   csv << "\n";
   Json::Value poses(Json::arrayValue);
   std::string start = options.registration.initialPose;
@@ -122,6 +125,19 @@ int RunTrack(const TrackOptions& options)
     for (size_t v = 0; v < frames[f].size(); ++v)
       csv << "," << (v < record.edgeDistanceMM.size() ? record.edgeDistanceMM[v] : -1.0) << ","
           << (v < record.edgeDistanceShiftedMM.size() ? record.edgeDistanceShiftedMM[v] : -1.0);
+    if (record.couch)
+    {
+      const CouchMotion& couch = *record.couch;
+      std::string limits;
+      for (const std::string& limit : couch.limitedBy)
+        limits += (limits.empty() ? "" : " ") + limit;
+      csv << "," << CouchActionName(couch.action) << "," << couch.motion.translation[0] << "," << couch.motion.translation[1]
+          << "," << couch.motion.translation[2] << "," << couch.motion.pitch << "," << couch.motion.roll << ","
+          << couch.motion.yaw << "," << couch.uncorrected.pitch << "," << couch.uncorrected.roll << ","
+          << couch.uncorrected.yaw << "," << limits;
+    }
+    else
+      csv << ",,,,,,,,,,,";
     csv << "\n";
     Json::Value item;
     item["frame"] = static_cast<Json::UInt64>(f + 1);
@@ -138,6 +154,22 @@ int RunTrack(const TrackOptions& options)
     }
     for (const std::string& reason : record.Reasons())
       item["reasons"].append(reason);
+    if (record.couch)
+    {
+      const CouchMotion& couch = *record.couch;
+      item["couch"]["action"] = CouchActionName(couch.action);
+      for (int k = 0; k < 3; ++k)
+        item["couch"]["translation_mm"].append(couch.motion.translation[k]);
+      item["couch"]["rotation_deg"]["pitch"] = couch.motion.pitch;
+      item["couch"]["rotation_deg"]["roll"] = couch.motion.roll;
+      item["couch"]["rotation_deg"]["yaw"] = couch.motion.yaw;
+      item["couch"]["uncorrected_rotation_deg"]["pitch"] = couch.uncorrected.pitch;
+      item["couch"]["uncorrected_rotation_deg"]["roll"] = couch.uncorrected.roll;
+      item["couch"]["uncorrected_rotation_deg"]["yaw"] = couch.uncorrected.yaw;
+      item["couch"]["limited_by"] = Json::Value(Json::arrayValue);
+      for (const std::string& limit : couch.limitedBy)
+        item["couch"]["limited_by"].append(limit);
+    }
     item["time_s"] = record.totalSeconds;
     for (size_t v = 0; v < record.edgeDistanceMM.size() && v < record.viewNames.size(); ++v)
     {

@@ -172,6 +172,32 @@ Eigen::Isometry3d CouchMotion::Transform() const
   return transform;
 }
 
+std::string CouchMotion::Describe() const
+{
+  char text[600];
+  std::string limits;
+  for (const std::string& limit : this->limitedBy)
+    limits += (limits.empty() ? "; limited by " : ", ") + limit;
+  std::snprintf(text, sizeof text,
+    "couch (%s): %s: translation (%.2f, %.2f, %.2f) mm, pitch %.2f roll %.2f yaw %.2f deg\n"
+    "  uncorrected: pitch %.2f roll %.2f yaw %.2f deg (%.2f mm at 50 mm, %.2f mm at 100 mm from the target)%s",
+    this->couch.Describe().c_str(), CouchActionName(this->action).c_str(), this->motion.translation[0],
+    this->motion.translation[1], this->motion.translation[2], this->motion.pitch, this->motion.roll, this->motion.yaw,
+    this->uncorrected.pitch, this->uncorrected.roll, this->uncorrected.yaw, this->uncorrectedAt50MM,
+    this->uncorrectedAt100MM, limits.c_str());
+  return text;
+}
+
+std::string CouchMotion::Summary() const
+{
+  char text[300];
+  std::snprintf(text, sizeof text, "%s %s (%.2f, %.2f, %.2f) mm, pitch %.2f roll %.2f yaw %.2f deg, %.2f deg uncorrected",
+    CouchMotionsName(this->couch.motions).c_str(), CouchActionName(this->action).c_str(), this->motion.translation[0],
+    this->motion.translation[1], this->motion.translation[2], this->motion.pitch, this->motion.roll, this->motion.yaw,
+    this->uncorrected.RotationAngle());
+  return text;
+}
+
 CouchMotion PlanCouchMotion(const Pose& misalignment, const Eigen::Vector3d& isocenter, const Eigen::Vector3d& target,
   const CouchDescription& couch, const ActionLevels& levels)
 {

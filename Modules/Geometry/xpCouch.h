@@ -94,6 +94,11 @@ struct VTKXPGEOMETRY_EXPORT CouchMotion
   /** The couch motion as a Room-to-Room transform: p -> R_c (p - c) + c + t_c. */
   Eigen::Isometry3d Transform() const;
   double TranslationLength() const { return this->motion.translation.norm(); }
+  /** Two lines: "couch (4dof, ...): move by (x, y, z) mm, pitch .. roll .. yaw .. deg" and what
+   *  stays uncorrected, with the limits that decided. */
+  std::string Describe() const;
+  /** One line for a log: "4dof move (x, y, z) mm, pitch .. roll .. yaw .. deg, 1.20 deg uncorrected". */
+  std::string Summary() const;
 };
 
 /**

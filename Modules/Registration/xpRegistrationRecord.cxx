@@ -46,6 +46,42 @@ Json::Value List(const std::vector<T>& items)
   return value;
 }
 
+Json::Value PointValue(const Eigen::Vector3d& point)
+{
+  Json::Value value(Json::arrayValue);
+  for (int a = 0; a < 3; ++a)
+    value.append(point[a]);
+  return value;
+}
+
+/** result.json's `couch`: the couch motion of an ok result in the terms of `correction`. */
+Json::Value CouchValue(const CouchMotion& c, const ActionLevels& levels, const Eigen::Vector3d& targetInCT)
+{
+  Json::Value value(Json::objectValue);
+  value["couch"] = CouchMotionsName(c.couch.motions);
+  value["motions"] = List(CouchMotionList(c.couch.motions));
+  value["rotation_limit_deg"] = std::isfinite(c.couch.pitchRollLimitDegrees) ? Json::Value(c.couch.pitchRollLimitDegrees)
+                                                                               : Json::Value(Json::nullValue);
+  value["translation_mm"] = PointValue(c.motion.translation);
+  value["rotation_deg"] = PoseValue(c.motion)["rotation_deg"];
+  value["rotation_center"] = PointValue(c.rotationCenter);
+  value["target_ct"] = PointValue(targetInCT);
+  value["target_room"] = PointValue(c.target);
+  value["uncorrected_rotation_deg"] = PoseValue(c.uncorrected)["rotation_deg"];
+  value["uncorrected_translation_mm"] = PointValue(c.uncorrected.translation);
+  value["uncorrected_mm_at_50"] = c.uncorrectedAt50MM;
+  value["uncorrected_mm_at_100"] = c.uncorrectedAt100MM;
+  value["limited_by"] = List(c.limitedBy);
+  value["action"] = CouchActionName(c.action);
+  value["action_reason"] = c.actionReason;
+  const auto limit = [](double v) { return std::isfinite(v) ? Json::Value(v) : Json::Value(Json::nullValue); };
+  value["action_levels"]["mm"] = levels.actionMM;
+  value["action_levels"]["deg"] = levels.actionDegrees;
+  value["action_levels"]["max_uncorrected_mm"] = limit(levels.maxUncorrectedMM);
+  value["action_levels"]["max_uncorrected_deg"] = limit(levels.maxUncorrectedDegrees);
+  return value;
+}
+
 /** A parsed record with errors that name the file and the field. */
 class Fields
 {
@@ -217,6 +253,8 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   root["status"] = r.ok ? "ok" : "failed";
   root["misalignment"] = PoseValue(r.misalignment);
   root["correction"] = PoseValue(r.correction);
+  if (r.couch)
+    root["couch"] = CouchValue(*r.couch, r.actionLevels, r.targetInCT);
   root["initial_pose"] = PoseValue(r.initialPose);
   root["bone_only"] = r.boneOnly;
   if (r.restartsApartMM >= 0.0)
@@ -495,6 +533,60 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   }
   if (r.ok != r.failures.empty())
     f.Fail("failures", "must be empty exactly when status is ok");
+  if (f.Has("couch")) // absent for a failed result and in records written before the couch
+  {
+    if (!r.ok)
+      f.Fail("couch", "is given only for an ok result");
+    CouchMotion c;
+    const std::string motions = f.Text("couch.couch");
+    if (motions != "6dof" && motions != "4dof")
+      f.Fail("couch.couch", "must be 6dof or 4dof");
+    c.couch.motions = ParseCouchMotions(motions, "couch.couch");
+    if (f.At("couch.rotation_limit_deg").isNumeric())
+      c.couch.pitchRollLimitDegrees = f.Number("couch.rotation_limit_deg");
+    const auto point = [&f](const std::string& field)
+    {
+      const std::vector<double> p = f.Numbers(field);
+      if (p.size() != 3)
+        f.Fail(field, "must hold 3 numbers");
+      return Eigen::Vector3d(p[0], p[1], p[2]);
+    };
+    const auto angles = [&f](const std::string& field, Pose& pose)
+    {
+      pose.pitch = f.Number(field + ".pitch");
+      pose.roll = f.Number(field + ".roll");
+      pose.yaw = f.Number(field + ".yaw");
+    };
+    c.motion.translation = point("couch.translation_mm");
+    angles("couch.rotation_deg", c.motion);
+    c.rotationCenter = point("couch.rotation_center");
+    c.couch.rotationCenter = c.rotationCenter;
+    r.targetInCT = point("couch.target_ct");
+    c.target = point("couch.target_room");
+    angles("couch.uncorrected_rotation_deg", c.uncorrected);
+    c.uncorrected.translation = point("couch.uncorrected_translation_mm");
+    c.uncorrectedAt50MM = f.Number("couch.uncorrected_mm_at_50");
+    c.uncorrectedAt100MM = f.Number("couch.uncorrected_mm_at_100");
+    c.limitedBy = f.Texts("couch.limited_by");
+    const std::string action = f.Text("couch.action");
+    bool known = false;
+    for (CouchAction a : { CouchAction::NoneNeeded, CouchAction::Move, CouchAction::SetUpAgain })
+      if (CouchActionName(a) == action)
+      {
+        c.action = a;
+        known = true;
+      }
+    if (!known)
+      f.Fail("couch.action", "must be none_needed, move or set_up_again");
+    c.actionReason = f.Text("couch.action_reason");
+    const auto limit = [&f](const std::string& field)
+    { return f.At(field).isNumeric() ? f.Number(field) : std::numeric_limits<double>::infinity(); };
+    r.actionLevels.actionMM = f.Number("couch.action_levels.mm");
+    r.actionLevels.actionDegrees = f.Number("couch.action_levels.deg");
+    r.actionLevels.maxUncorrectedMM = limit("couch.action_levels.max_uncorrected_mm");
+    r.actionLevels.maxUncorrectedDegrees = limit("couch.action_levels.max_uncorrected_deg");
+    r.couch = c;
+  }
   if (f.Has("inputs"))
   {
     RegistrationRecordInputs in;

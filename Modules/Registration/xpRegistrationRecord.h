@@ -12,6 +12,7 @@
 
 #include "vtkXPRegistrationModule.h"
 
+#include "xpCouch.h"
 #include "xpStereoRegistration.h"
 
 #include <optional>
@@ -41,6 +42,12 @@ struct RegistrationRecord
 {
   bool ok = false;
   Pose misalignment, correction;
+  /** For an ok result: the motion of the room's couch that carries out the correction as far as
+   *  it can (xpCouch.h), the target it puts back (CT LPS mm) and the action levels that decided
+   *  its action. */
+  std::optional<CouchMotion> couch;
+  Eigen::Vector3d targetInCT = Eigen::Vector3d::Zero();
+  ActionLevels actionLevels;
   Pose initialPose; ///< where the search began (--initial-pose; zero: the planned set-up)
   bool boneOnly = false;                                   ///< matched within the bone's shadow
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0; ///< bones: restarts' farthest end (written only)

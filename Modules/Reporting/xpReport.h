@@ -8,12 +8,13 @@
 
 #include "vtkXPReportingModule.h"
 
-#include "xpPose.h"
+#include "xpCouch.h"
 
 #include <vtkImageData.h>
 #include <vtkSmartPointer.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -46,6 +47,7 @@ struct ReportContent
   bool ok = false;
   std::vector<std::string> reasons;
   Pose misalignment, correction;
+  std::optional<CouchMotion> couch; ///< an ok result's couch motion (xpCouch.h)
   std::string convention;
   double objective = 0.0;
   long long drrCount = 0;

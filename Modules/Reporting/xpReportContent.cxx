@@ -31,6 +31,7 @@ ReportContent ReportContentOf(const RegistrationRecord& record, const std::strin
   content.reasons = record.Reasons();
   content.misalignment = record.misalignment;
   content.correction = record.correction;
+  content.couch = record.couch;
   content.convention = CorrectionConvention;
   content.objective = record.objective;
   content.drrCount = record.drrCount;

@@ -45,6 +45,13 @@ int vtkXPRegistrationSession::Run()
     sources.isocenterInCT = this->IsocenterInCT;
     sources.muWater = this->MuWater;
     sources.removeTable = this->RemoveTable;
+    sources.couch.motions = this->CouchMotions;
+    sources.couch.rotationLimit = this->CouchRotationLimit;
+    sources.couch.target = this->Target;
+    sources.couch.levels.actionMM = this->ActionLevel[0];
+    sources.couch.levels.actionDegrees = this->ActionLevel[1];
+    sources.couch.levels.maxUncorrectedMM = this->MaxUncorrected[0];
+    sources.couch.levels.maxUncorrectedDegrees = this->MaxUncorrected[1];
     // The settings `xpose register` takes when given no option but these.
     xp::StereoRegistrationSettings settings;
     settings.entropyMask = this->EntropyMask;

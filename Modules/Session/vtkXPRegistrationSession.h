@@ -23,6 +23,7 @@
 
 #include <vtkObject.h>
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -69,6 +70,26 @@ public:
    *  else is refused by Run. */
   void SetSchedule(const std::string& schedule) { this->Schedule = schedule; }
 
+  ///@{
+  /** The couch that carries out an ok result and the clinic's action levels, as `xpose register`
+   *  names them (--couch 6dof|4dof, --couch-rotation-limit, --target "x,y,z" in the CT's LPS mm,
+   *  --action-level-mm/-deg, --max-uncorrected-mm/-deg); result.json's `couch` gives the motion.
+   *  A value out of range is refused by Run, naming the option. */
+  void SetCouch(const std::string& motions) { this->CouchMotions = motions; }
+  void SetCouchRotationLimit(double degrees) { this->CouchRotationLimit = std::to_string(degrees); }
+  void SetTarget(const std::string& xyz) { this->Target = xyz; }
+  void SetActionLevels(double mm, double degrees)
+  {
+    this->ActionLevel[0] = mm;
+    this->ActionLevel[1] = degrees;
+  }
+  void SetMaxUncorrected(double mm, double degrees)
+  {
+    this->MaxUncorrected[0] = mm;
+    this->MaxUncorrected[1] = degrees;
+  }
+  ///@}
+
   /**
    * Reads the inputs, registers, and keeps the result: 1 when it is ok (the couch may be moved by
    * its correction), 0 when it failed the quality gate, -1 when an input was refused (GetLastError
@@ -102,6 +123,9 @@ private:
   bool EntropyMask = true;
   std::string Device = "cpu";
   std::string Schedule = "standard";
+  std::string CouchMotions, CouchRotationLimit, Target;
+  double ActionLevel[2] = { 0.0, 0.0 };
+  double MaxUncorrected[2] = { std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity() };
   std::unique_ptr<xp::RegistrationSession> Session;
   std::string LastError;
 };

@@ -43,6 +43,8 @@ RegistrationSession::RegistrationSession(
   this->Read.setup.patient = patient;
   this->Read.isoInCT = patient.IsocenterInCT(ImageCenter(ct));
   this->Read.planned = patient.PlannedCTToRoom(ImageCenter(ct));
+  this->Read.couch = geometry.couch.value_or(CouchDescription{});
+  this->Read.targetInCT = this->Read.isoInCT;
   this->SetUpFilter();
 }
 
@@ -107,6 +109,14 @@ const RegistrationRecord& RegistrationSession::Run(const StereoRegistrationSetti
   this->Recorded.volumeToRoom =
     MisalignedCTToRoom(this->Read.planned, result.misalignment, this->Read.setup.patient.roomIsocenter);
   this->Recorded.volumeCenter = ImageCenter(this->Read.setup.ct.image);
+  if (result.ok) // a couch motion only for a result the couch may be moved by
+  {
+    const Eigen::Vector3d& isocenter = this->Read.setup.patient.roomIsocenter;
+    this->Recorded.couch = PlanCouchMotion(result.misalignment, isocenter, this->Read.planned * this->Read.targetInCT,
+      this->Read.couch, this->Read.actionLevels);
+    this->Recorded.targetInCT = this->Read.targetInCT;
+    this->Recorded.actionLevels = this->Read.actionLevels;
+  }
   return this->Recorded;
 }
 

@@ -11,6 +11,8 @@
 #include "xpVolumeIO.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <limits>
 
 namespace xp
 {
@@ -75,6 +77,9 @@ int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::str
 
 RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
 {
+  // The couch options' own words, before any file is read (the target needs the CT).
+  sources.couch.levels.Validate();
+  ResolveCouch(StereoGeometry{}, sources.couch);
   RegistrationInputs inputs;
   inputs.setup = MakeDRRSetup(sources.ct, sources.series, sources.voxelSize, sources.geometry, sources.isocenterInCT, sources.muWater,
     "trilinear", 0.0);
@@ -138,7 +143,56 @@ RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
   vtkImageData* ct = setup.ct.image;
   inputs.isoInCT = setup.patient.IsocenterInCT(ImageCenter(ct));
   inputs.planned = setup.patient.PlannedCTToRoom(ImageCenter(ct));
+  inputs.couch = ResolveCouch(setup.geometry, sources.couch);
+  inputs.targetInCT = ResolveTarget(sources.couch.target, ct, inputs.isoInCT);
+  inputs.actionLevels = sources.couch.levels;
   return inputs;
+}
+
+CouchDescription ResolveCouch(const StereoGeometry& geometry, const CouchOptions& options)
+{
+  CouchDescription couch = geometry.couch.value_or(CouchDescription{});
+  if (!options.motions.empty())
+    couch.motions = ParseCouchMotions(options.motions, "--couch");
+  if (!options.rotationLimit.empty())
+  {
+    size_t used = 0;
+    double limit = std::numeric_limits<double>::quiet_NaN();
+    try
+    {
+      limit = std::stod(options.rotationLimit, &used);
+    }
+    catch (const std::exception&)
+    {
+      used = 0;
+    }
+    if (used != options.rotationLimit.size() || !(limit >= 0.0 && limit <= 180.0))
+      throw InputError("--couch-rotation-limit", "expected degrees from 0 to 180 (pitch and roll, each way), got '" +
+          options.rotationLimit + "'");
+    couch.pitchRollLimitDegrees = limit;
+  }
+  couch.Validate("--couch-rotation-limit");
+  return couch;
+}
+
+Eigen::Vector3d ResolveTarget(const std::string& text, vtkImageData* ct, const Eigen::Vector3d& isoInCT)
+{
+  if (text.empty())
+    return isoInCT;
+  const Eigen::Vector3d target = ParsePoint(text, "--target");
+  // Inside the CT's grid: the voxels' centres span it, half a voxel more each way.
+  const Eigen::Vector3d index = IndexToPhysical(ct).inverse() * target;
+  int dimensions[3];
+  ct->GetDimensions(dimensions);
+  for (int axis = 0; axis < 3; ++axis)
+    if (!(index[axis] >= -0.5 && index[axis] <= dimensions[axis] - 0.5))
+    {
+      char where[160];
+      std::snprintf(where, sizeof where, "(%.1f, %.1f, %.1f) mm is outside the CT (index %.1f, %.1f, %.1f of %dx%dx%d)",
+        target[0], target[1], target[2], index[0], index[1], index[2], dimensions[0], dimensions[1], dimensions[2]);
+      throw InputError("--target", where);
+    }
+  return target;
 }
 
 } // namespace xp

@@ -29,6 +29,16 @@
 namespace xp
 {
 
+/** The treatment couch and target as the options give them (register, track, listen, Python):
+ *  each overrides the geometry file's couch (Coordinates.md, "The couch"). */
+struct CouchOptions
+{
+  std::string motions;       ///< --couch 6dof|4dof; empty: the geometry file's (6dof, unlimited, without one)
+  std::string rotationLimit; ///< --couch-rotation-limit DEG (pitch and roll, each way); empty: the geometry's
+  std::string target;        ///< --target x,y,z in the CT's LPS mm; empty: the planned isocentre
+  ActionLevels levels;       ///< --action-level-mm/-deg, --max-uncorrected-mm/-deg
+};
+
 /** A registration's input files and how to read them, as the options name them. */
 struct RegistrationSources
 {
@@ -42,6 +52,7 @@ struct RegistrationSources
   std::string isocenterInCT;        ///< "x,y,z" LPS mm; empty: the CT's centre (--iso-ct)
   double muWater = WaterAttenuationPerMM; ///< water's attenuation per mm (--mu-water)
   bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
+  CouchOptions couch;               ///< the couch that carries out an ok result, and the target
 };
 
 /** A CT and geometry read, and one DRR filter placed like the CT (its view set per imager). */
@@ -77,7 +88,18 @@ struct RegistrationInputs
   /** Per X-ray: the image intensifier's circular field found in it (xpFieldOfView.h), whose
    *  outside is left out of the ROI. */
   std::vector<CircularField> fields;
+  CouchDescription couch;                 ///< the geometry's couch with the options' overrides
+  Eigen::Vector3d targetInCT = Eigen::Vector3d::Zero(); ///< LPS mm: the treatment target (default isoInCT)
+  ActionLevels actionLevels;
 };
+
+/** The couch of `geometry` (6dof without limits about the isocentre when it has none) with the
+ *  options' overrides; throws xp::InputError naming --couch or --couch-rotation-limit. */
+VTKXPSESSION_EXPORT CouchDescription ResolveCouch(const StereoGeometry& geometry, const CouchOptions& options);
+
+/** The treatment target in the CT's LPS mm: `text` ("x,y,z") or, when empty, `isoInCT`; throws
+ *  xp::InputError naming --target for a point outside the CT's grid. */
+VTKXPSESSION_EXPORT Eigen::Vector3d ResolveTarget(const std::string& text, vtkImageData* ct, const Eigen::Vector3d& isoInCT);
 
 /**
  * The whole factor by which `size` ("COLSxROWS", empty = 1) divides every panel; throws

@@ -28,7 +28,8 @@ print("misalignment", numbers(python["misalignment"]))
 sys.exit(0 if command["status"] == python["status"] == "ok" and worst <= 1e-6 else 1)
 PY
 "$xpose" register --ct "$work/ct" --geometry "$geometry" --xray "$work/xray/xray_A.png" --xray "$work/xray/xray_B.png" \
-  --size 256x192 --initial-pose 1,0,0,0,0,0 --out-dir "$work/command-from-start" >/dev/null || test $? -eq 3
+  --size 256x192 --initial-pose 1,0,0,0,0,0 --couch 4dof --target 10,-20,30 --action-level-mm 1 --action-level-deg 1 \
+  --max-uncorrected-deg 2.5 --out-dir "$work/command-from-start" >/dev/null || test $? -eq 3
 "$python" - "$work" "$geometry" <<'PY'
 import json, os, sys
 import xpose
@@ -40,6 +41,10 @@ session.AddXRayPath(f"{work}/xray/xray_A.png")
 session.AddXRayPath(f"{work}/xray/xray_B.png")
 session.SetSize("256x192")
 session.SetInitialPose(1, 0, 0, 0, 0, 0)
+session.SetCouch("4dof")
+session.SetTarget("10,-20,30")
+session.SetActionLevels(1, 1)
+session.SetMaxUncorrected(float("inf"), 2.5)
 status = session.Run()
 if status < 0:
     sys.exit("session refused: " + session.GetLastError())
@@ -60,6 +65,10 @@ assert refused.Run() == -1 and "--device" in refused.GetLastError(), refused.Get
 refused.SetDevice("cpu")
 refused.SetSchedule("fast")
 assert refused.Run() == -1 and "--schedule" in refused.GetLastError(), refused.GetLastError()
+# And a couch that is no couch.
+refused.SetSchedule("standard")
+refused.SetCouch("5dof")
+assert refused.Run() == -1 and "--couch" in refused.GetLastError(), refused.GetLastError()
 
 def without_times(record):
     record.pop("timing_s")
@@ -74,6 +83,10 @@ assert python == written, "the written result.json differs from the session's re
 differences = sorted(k for k in command if command[k] != python.get(k))
 assert not differences, f"the session's record differs from the command's in {differences}"
 assert (status == 1) == (command["status"] == "ok")
+if status == 1:  # the couch block: a 4-DOF couch leaves pitch and roll, and names why
+    assert python["couch"]["motions"] == ["lateral", "longitudinal", "vertical", "yaw"], python["couch"]
+    assert python["couch"]["rotation_deg"]["pitch"] == 0 and "no_pitch" in python["couch"]["limited_by"], python["couch"]
+    assert python["couch"]["target_ct"] == [10, -20, 30], python["couch"]
 names = sorted(os.listdir(f"{work}/command-from-start"))
 assert names == sorted(os.listdir(f"{work}/python")), names
 for name in names:

@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <random>
@@ -364,6 +365,25 @@ xp::RegisterOptions RegisterSimulated(const std::string& simulated, const std::s
 
 } // namespace
 
+namespace
+{
+
+/** The couch motion of `result` applied to the misalignment it estimated puts the target back
+ *  within 0.01 mm, applied to the true one within 0.5 mm; the target is where the plan puts
+ *  `targetInCT`. */
+void ExpectTheCouchPutsTheTargetBack(const xp::RegistrationRecord& result, const xp::Pose& truth,
+  const Eigen::Isometry3d& planned, const Eigen::Vector3d& targetInCT)
+{
+  ASSERT_TRUE(result.couch.has_value()) << "an ok result carries a couch motion";
+  const xp::CouchMotion& couch = *result.couch;
+  const Eigen::Vector3d target = planned * targetInCT, iso = Eigen::Vector3d::Zero();
+  EXPECT_LT((couch.target - target).norm(), 1e-6) << couch.target.transpose() << " vs " << target.transpose();
+  EXPECT_LT((couch.Transform() * (result.misalignment.ToTransform(iso) * target) - target).norm(), 0.01);
+  EXPECT_LT((couch.Transform() * (truth.ToTransform(iso) * target) - target).norm(), 0.5);
+}
+
+} // namespace
+
 TEST(Commands, RegisterRecoversASimulatedMisalignment)
 {
   ASSERT_EQ(std::system("rm -rf cmd-reg-sim cmd-reg"), 0);
@@ -371,6 +391,12 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   ASSERT_EQ(xp::GuardedRun("simulate", [&] { return xp::RunSimulate(simulate); }), xp::ExitOk);
   xp::RegisterOptions options = RegisterSimulated("cmd-reg-sim", "cmd-reg");
   options.dicomOutputDirectory = "cmd-reg-dicom";
+  // A 4-DOF couch, and a target 45 mm from the isocentre: the couch cannot pitch or roll.
+  const xp::CTVolume volume = xp::ReadCTVolume(PhantomCT());
+  const Eigen::Vector3d centre = xp::ImageCenter(volume.image);
+  const Eigen::Vector3d targetInCT = centre + Eigen::Vector3d(30, -20, 25);
+  options.couch.motions = "4dof";
+  options.couch.target = std::to_string(targetInCT[0]) + "," + std::to_string(targetInCT[1]) + "," + std::to_string(targetInCT[2]);
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg/result.json");
   EXPECT_TRUE(result.ok) << FailureCodes(result);
@@ -391,9 +417,12 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   // patient in the room (GEOMETRY.md, written out here), within 0.01 mm.
   const xp::CTSeriesInfo ct = xp::ScanCTSeries(PhantomCT());
   const Eigen::Isometry3d inCT = xp::ReadSpatialRegistrationMatrix("cmd-reg-dicom/reg.dcm", ct.frameOfReferenceUID);
-  const xp::CTVolume volume = xp::ReadCTVolume(PhantomCT());
-  const Eigen::Vector3d centre = xp::ImageCenter(volume.image);
   const Eigen::Isometry3d planned = xp::PlannedCTToRoom(xp::PatientPosition::HFS, centre, Eigen::Vector3d::Zero());
+  ExpectTheCouchPutsTheTargetBack(result, xp::Pose::Parse("5,-3,2,1,-1,1.5", "truth"), planned, targetInCT);
+  EXPECT_EQ(result.couch->motion.pitch, 0.0);
+  EXPECT_EQ(result.couch->motion.roll, 0.0);
+  EXPECT_EQ(result.couch->limitedBy, (std::vector<std::string>{ "no_pitch", "no_roll" }));
+  EXPECT_NEAR(result.couch->uncorrected.pitch, result.misalignment.pitch, 0.1);
   const xp::Pose& m = result.misalignment;
   const double deg = M_PI / 180.0;
   const Eigen::Matrix3d R = (Eigen::AngleAxisd(m.yaw * deg, Eigen::Vector3d::UnitZ()) *
@@ -442,13 +471,16 @@ TEST(Commands, TrackRegistersFrameAfterFrame)
   options.registration.xrays.clear();
   options.frames = { "cmd-track-1/xray_A.png,cmd-track-1/xray_B.png", "cmd-track-2/xray_A.png,cmd-track-2/xray_B.png" };
   options.outputDirectory = "cmd-track";
+  options.registration.couch.motions = "4dof";
   ASSERT_EQ(xp::GuardedRun("track", [&] { return xp::RunTrack(options); }), xp::ExitOk);
   std::istringstream csv(ReadText("cmd-track/poses.csv"));
   std::string header, row;
   std::getline(csv, header);
   EXPECT_EQ(header, "frame,xray_a,xray_b,status,tx_mm,ty_mm,tz_mm,pitch_deg,roll_deg,yaw_deg,uncertainty_tx_mm,"
                     "uncertainty_ty_mm,uncertainty_tz_mm,uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s,"
-                    "edge_distance_a_mm,edge_distance_moved_a_mm,edge_distance_b_mm,edge_distance_moved_b_mm");
+                    "edge_distance_a_mm,edge_distance_moved_a_mm,edge_distance_b_mm,edge_distance_moved_b_mm,"
+                    "couch_action,couch_tx_mm,couch_ty_mm,couch_tz_mm,couch_pitch_deg,couch_roll_deg,couch_yaw_deg,"
+                    "uncorrected_pitch_deg,uncorrected_roll_deg,uncorrected_yaw_deg,couch_limited_by");
   int rows = 0;
   while (std::getline(csv, row))
   {
@@ -456,8 +488,12 @@ TEST(Commands, TrackRegistersFrameAfterFrame)
     std::stringstream in(row);
     for (std::string cell; std::getline(in, cell, ',');)
       cells.push_back(cell);
-    ASSERT_EQ(cells.size(), 21u) << row;
+    ASSERT_EQ(cells.size(), 32u) << row;
     EXPECT_EQ(cells[3], "ok") << row;
+    EXPECT_EQ(cells[21], "move") << row;
+    EXPECT_EQ(cells[25], "0") << row << ": a 4-DOF couch does not pitch";
+    EXPECT_NEAR(std::stod(cells[28]), std::stod(cells[7]), 0.2) << row << ": the pitch stays uncorrected";
+    EXPECT_EQ(cells[31], "no_pitch no_roll") << row;
     // Each view's DRR edges lie on the X-ray's, no farther than when moved 3 mm, and closer over
     // both views (the medians come in whole pixels of 1.04 mm here: a view whose X-ray edges lie
     // within a pixel of any moved edge ties).
@@ -549,6 +585,21 @@ TEST(Commands, RegisterBadInputExitsWithTwo)
   options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
   options.device = "gpu";
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "device";
+  // The couch's options, each refused by name before any work.
+  for (const auto& [option, set] : std::vector<std::pair<std::string, std::function<void(xp::RegisterOptions&)>>>{
+         { "--couch", [](xp::RegisterOptions& o) { o.couch.motions = "5dof"; } },
+         { "--couch-rotation-limit", [](xp::RegisterOptions& o) { o.couch.rotationLimit = "-1"; } },
+         { "--couch-rotation-limit", [](xp::RegisterOptions& o) { o.couch.rotationLimit = "3deg"; } },
+         { "--action-level-mm", [](xp::RegisterOptions& o) { o.couch.levels.actionMM = -1; } },
+         { "--max-uncorrected-deg", [](xp::RegisterOptions& o) { o.couch.levels.maxUncorrectedDegrees = std::nan(""); } } })
+  {
+    options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
+    set(options);
+    testing::internal::CaptureStderr();
+    EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << option;
+    const std::string error = testing::internal::GetCapturedStderr();
+    EXPECT_NE(error.find(option), std::string::npos) << error;
+  }
   EXPECT_FALSE(Exists("cmd-reg-bad"));
 }
 
@@ -644,16 +695,34 @@ TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
   // The pelvis resolution: at 256x192 (1.6 mm pixels at the panel) this case ends 0.53 mm
   // along the roll/lateral valley, at 512x384 0.27 mm.
   options.size = "512x384";
+  // A 6-DOF top that pitches and rolls at most 1 degree, about its own point below the patient.
+  options.couch.rotationLimit = "1";
+  options.geometry = "cmd-pel-room.json";
+  {
+    xp::StereoGeometry room = xp::ReadStereoGeometry(Geometry);
+    room.couch = xp::CouchDescription{};
+    room.couch->rotationCenter = Eigen::Vector3d(0, -300, -250);
+    xp::WriteStereoGeometry(room, options.geometry);
+  }
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-pel-reg/result.json");
   EXPECT_LT((result.misalignment.translation - Eigen::Vector3d(7, -5, 4)).cwiseAbs().maxCoeff(), 0.5)
     << result.misalignment.ToString();
   EXPECT_NEAR(result.misalignment.yaw, 2.5, 0.2);
+  const xp::CTVolume pelvis = xp::ReadCTVolume(SharedPelvis);
+  const Eigen::Vector3d centre = xp::ImageCenter(pelvis.image);
+  ExpectTheCouchPutsTheTargetBack(result, xp::Pose::Parse("7,-5,4,2,-1.5,2.5", "truth"),
+    xp::PlannedCTToRoom(xp::PatientPosition::HFS, centre, Eigen::Vector3d::Zero()), centre);
+  EXPECT_NEAR(result.couch->motion.pitch, -1.0, 1e-6) << "the correction's -2 degrees clipped";
+  EXPECT_NEAR(result.couch->motion.roll, 1.0, 1e-6) << "the correction's +1.5 degrees clipped";
+  EXPECT_EQ(result.couch->limitedBy, (std::vector<std::string>{ "pitch_limit", "roll_limit" }));
+  EXPECT_EQ(result.couch->rotationCenter, Eigen::Vector3d(0, -300, -250));
 
   // The pelvis X-rays against the head phantom's CT: another patient, so the result must fail.
   options = RegisterSimulated("cmd-pel-sim", "cmd-pel-other");
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitRegistrationFailed);
   EXPECT_FALSE(xp::ReadRegistrationRecord("cmd-pel-other/result.json").ok);
+  EXPECT_FALSE(xp::ReadRegistrationRecord("cmd-pel-other/result.json").couch.has_value()) << "no couch motion for a failed result";
 }
 
 namespace
@@ -720,7 +789,9 @@ TEST(Commands, RegisterWritesAReportThatReportRebuilds)
   const std::string html = ReadText("cmd-report/report/index.html");
   EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
   EXPECT_NE(html.find("</html>"), std::string::npos);
-  EXPECT_NE(html.find("couch correction"), std::string::npos);
+  EXPECT_NE(html.find("6-DOF correction"), std::string::npos);
+  EXPECT_NE(html.find("<h2>Couch</h2>"), std::string::npos) << "an ok result's couch panel";
+  EXPECT_NE(html.find("couch motion"), std::string::npos);
   for (const std::string& file : ReportPictures())
     if (file != "summary.png")
       EXPECT_NE(html.find("src=\"" + file + "\""), std::string::npos) << file << " is not on the page";

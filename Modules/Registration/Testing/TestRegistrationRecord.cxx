@@ -109,6 +109,58 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_FALSE(xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r").inputs.has_value());
 }
 
+// An ok result's couch block: written and read back, each figure in its place; refused on a
+// failed result, which the couch must not be moved by.
+TEST(RegistrationRecord, RoundTripsTheCouchMotion)
+{
+  xp::RegistrationRecord written = FailedRecord();
+  written.ok = true;
+  written.failures.clear();
+  xp::CouchDescription couch;
+  couch.motions = xp::CouchMotions::SixDOF;
+  couch.pitchRollLimitDegrees = 1.0;
+  couch.rotationCenter = Eigen::Vector3d(0, -300, -250);
+  written.actionLevels.actionMM = 1.0;
+  written.actionLevels.maxUncorrectedDegrees = 3.0;
+  written.couch = xp::PlanCouchMotion(xp::Pose::Parse("2,-1,3,2,-1.5,1", "pose"), Eigen::Vector3d::Zero(),
+    Eigen::Vector3d(10, 20, -5), couch, written.actionLevels);
+  written.targetInCT = Eigen::Vector3d(1.5, -2.5, 3.5);
+  const std::string json = xp::RegistrationRecordJSON(written);
+  const xp::RegistrationRecord read = xp::ParseRegistrationRecord(json, "result.json");
+  ASSERT_TRUE(read.couch.has_value());
+  const xp::CouchMotion &a = *read.couch, &b = *written.couch;
+  EXPECT_EQ(a.couch.motions, xp::CouchMotions::SixDOF);
+  EXPECT_DOUBLE_EQ(a.couch.pitchRollLimitDegrees, 1.0);
+  EXPECT_LT((a.motion.translation - b.motion.translation).norm(), 1e-8);
+  EXPECT_NEAR(a.motion.pitch, -1.0, 1e-9);
+  EXPECT_NEAR(a.motion.roll, 1.0, 1e-9);
+  EXPECT_NEAR(a.motion.yaw, b.motion.yaw, 1e-9);
+  EXPECT_EQ(a.rotationCenter, Eigen::Vector3d(0, -300, -250));
+  EXPECT_EQ(a.target, Eigen::Vector3d(10, 20, -5));
+  EXPECT_EQ(read.targetInCT, Eigen::Vector3d(1.5, -2.5, 3.5));
+  EXPECT_NEAR(a.uncorrected.pitch, b.uncorrected.pitch, 1e-9);
+  EXPECT_NEAR(a.uncorrected.roll, b.uncorrected.roll, 1e-9);
+  EXPECT_NEAR(a.uncorrectedAt100MM, b.uncorrectedAt100MM, 1e-9);
+  EXPECT_EQ(a.limitedBy, (std::vector<std::string>{ "pitch_limit", "roll_limit" }));
+  EXPECT_EQ(a.action, b.action);
+  EXPECT_EQ(read.actionLevels.actionMM, 1.0);
+  EXPECT_EQ(read.actionLevels.maxUncorrectedDegrees, 3.0);
+  EXPECT_TRUE(std::isinf(read.actionLevels.maxUncorrectedMM)) << "none: null in the file";
+  // The names, in the file.
+  for (const char* name : { "\"motions\"", "\"translation_mm\"", "\"rotation_center\"", "\"uncorrected_rotation_deg\"",
+         "\"uncorrected_mm_at_50\"", "\"uncorrected_mm_at_100\"", "\"limited_by\"", "\"action\" : \"move\"" })
+    EXPECT_NE(json.find(name), std::string::npos) << name;
+  // A failed result with a couch block is a damaged record.
+  Json::Value root;
+  std::istringstream(json) >> root;
+  root["status"] = "failed";
+  root["failures"].append(Json::Value(Json::objectValue));
+  root["failures"][0]["code"] = "low_explained";
+  root["failures"][0]["message"] = "m";
+  root["failures"][0]["view"] = Json::Value(Json::nullValue);
+  EXPECT_THROW(xp::ParseRegistrationRecord(root.toStyledString(), "result.json"), xp::InputError);
+}
+
 TEST(RegistrationRecord, KeepsTheVolumesPlacementAndTheEdgeFigures)
 {
   xp::RegistrationRecord written = FailedRecord();

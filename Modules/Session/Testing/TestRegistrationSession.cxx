@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 #include <vtkImageData.h>
+#include <vtkNew.h>
 
 #include <filesystem>
 #include <fstream>
@@ -127,4 +128,52 @@ TEST(RegistrationSession, InMemoryTakesItsXRaysAndChecksEachAgainstItsImager)
     EXPECT_NE(std::string(e.what()).find("imager B"), std::string::npos) << e.what();
   }
   EXPECT_EQ(session.Inputs().views[1].xray, xp::RowsTopFirst<uint16_t>(second)) << "a refused pair changes nothing";
+}
+
+// The target is a CT point: inside the grid (half a voxel beyond the outer centres included),
+// refused by --target outside it; none given is the planned isocentre.
+TEST(RegistrationSession, TheTargetMustLieInTheCT)
+{
+  vtkNew<vtkImageData> ct;
+  ct->SetDimensions(10, 20, 5);
+  ct->SetSpacing(1.0, 2.0, 3.0);
+  ct->SetOrigin(-5.0, 100.0, 0.0);
+  ct->AllocateScalars(VTK_SHORT, 1);
+  const Eigen::Vector3d iso(0.0, 120.0, 6.0);
+  EXPECT_EQ(xp::ResolveTarget("", ct, iso), iso);
+  EXPECT_EQ(xp::ResolveTarget("4.4,138,13", ct, iso), Eigen::Vector3d(4.4, 138, 13));
+  for (const char* outside : { "5.6,120,6", "0,98.9,6", "0,120,13.6", "0,120,-1.6" })
+  {
+    try
+    {
+      xp::ResolveTarget(outside, ct, iso);
+      ADD_FAILURE() << outside << " passed";
+    }
+    catch (const xp::InputError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("--target"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("outside the CT"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(xp::ResolveTarget("1,2", ct, iso), xp::InputError);
+}
+
+// A geometry file's couch, and the options that override it.
+TEST(RegistrationSession, TheOptionsOverrideTheGeometrysCouch)
+{
+  xp::StereoGeometry room;
+  EXPECT_TRUE(xp::ResolveCouch(room, {}) == xp::CouchDescription{}) << "none in the file: 6dof, unlimited";
+  room.couch = xp::CouchDescription{};
+  room.couch->motions = xp::CouchMotions::FourDOF;
+  room.couch->rotationCenter = Eigen::Vector3d(1, 2, 3);
+  xp::CouchOptions options;
+  EXPECT_EQ(xp::ResolveCouch(room, options).motions, xp::CouchMotions::FourDOF);
+  options.motions = "6dof";
+  options.rotationLimit = "2.5";
+  const xp::CouchDescription couch = xp::ResolveCouch(room, options);
+  EXPECT_EQ(couch.motions, xp::CouchMotions::SixDOF);
+  EXPECT_EQ(couch.pitchRollLimitDegrees, 2.5);
+  EXPECT_EQ(couch.rotationCenter.value(), Eigen::Vector3d(1, 2, 3));
+  options.rotationLimit = "nan";
+  EXPECT_THROW(xp::ResolveCouch(room, options), xp::InputError);
 }
