@@ -84,10 +84,12 @@ public:
       std::vector<size_t> matches;
       try
       {
-        ReadXRayViewFromTags(instance.path, this->Geometry.isocenter, anyCT.patientPosition);
+        const XRayView own = ReadXRayViewFromTags(instance.path, this->Geometry.isocenter, anyCT.patientPosition);
+        // An imager's panel as this X-ray was read out: whole, or binned to its size.
         for (size_t v = 0; v < this->Geometry.views.size(); ++v)
-          if (XRayTagDisagreements(instance.path, this->Geometry.views[v], this->Geometry.isocenter, anyCT.patientPosition).empty())
-            matches.push_back(v);
+          if (const std::optional<XRayView> panel = this->Geometry.views[v].Binned(own.Columns(), own.Rows()))
+            if (XRayTagDisagreements(instance.path, *panel, this->Geometry.isocenter, anyCT.patientPosition).empty())
+              matches.push_back(v);
       }
       catch (const Error& e)
       {

@@ -209,6 +209,12 @@ int RunRegister(const RegisterOptions& options)
     inputs.views[0].view.Columns(), inputs.views[0].view.Rows(), readSeconds);
   if (options.removeTable)
     std::printf("table: %lld voxels outside the body set to air\n", inputs.tableVoxelsRemoved);
+  for (size_t v = 0; v < inputs.binning.size(); ++v)
+    if (inputs.binning[v][0] > 1 || inputs.binning[v][1] > 1)
+      std::printf("view %s: the X-ray is the panel read out binned %dx%d (%dx%d pixels of %.3f x %.3f mm)\n",
+        inputs.views[v].view.name.c_str(), inputs.binning[v][0], inputs.binning[v][1], inputs.setup.geometry.views[v].Columns(),
+        inputs.setup.geometry.views[v].Rows(), inputs.setup.geometry.views[v].pixelSpacing[0],
+        inputs.setup.geometry.views[v].pixelSpacing[1]);
   for (size_t v = 0; v < inputs.fields.size(); ++v)
     if (inputs.fields[v].found)
       std::printf("view %s: an image intensifier's circular field, centre (%.0f, %.0f) px, radius %.0f px: its outside is "

@@ -51,6 +51,14 @@ Ray XRayView::PixelRay(double col, double row) const
   return { this->source, (this->PixelCenter(col, row) - this->source).normalized() };
 }
 
+std::optional<XRayView> XRayView::Binned(int columns, int rows) const
+{
+  if (columns <= 0 || rows <= 0 || columns > this->size[0] || rows > this->size[1] || this->size[0] % columns != 0 ||
+    this->size[1] % rows != 0)
+    return std::nullopt;
+  return this->Resampled(columns, rows);
+}
+
 XRayView XRayView::Resampled(int columns, int rows) const
 {
   if (columns <= 0 || rows <= 0)

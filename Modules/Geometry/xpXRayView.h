@@ -12,6 +12,7 @@
 #include "vtkXPGeometryModule.h"
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 
 namespace xp
@@ -58,6 +59,10 @@ struct VTKXPGEOMETRY_EXPORT XRayView
 
   /** The same panel (same physical extent) sampled with a different number of pixels. */
   XRayView Resampled(int columns, int rows) const;
+
+  /** The panel read out binned to `columns` x `rows` (each a whole fraction of its own size,
+   *  the factors may differ per axis): Resampled to that size; none for any other size. */
+  std::optional<XRayView> Binned(int columns, int rows) const;
 };
 
 } // namespace xp

@@ -3,6 +3,7 @@
 #include "vtkXPStereoRegistrationFilter.h"
 #include "xpBodyMask.h"
 #include "xpDICOMXRay.h"
+#include "xpXRayGeometryTags.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
 #include "xpImageIO.h"
@@ -89,29 +90,35 @@ RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
     inputs.setup.ct.image = BodyOnly(inputs.setup.ct.image, {}, &inputs.tableVoxelsRemoved);
     inputs.setup.filter->SetInputData(inputs.setup.ct.image);
   }
-  const DRRSetup& setup = inputs.setup;
-  ValidateStereoGeometry(setup.geometry, sources.geometry);
-  const std::vector<XRayView>& panels = setup.geometry.views;
-  if (sources.xrays.size() != panels.size())
+  ValidateStereoGeometry(inputs.setup.geometry, sources.geometry);
+  if (sources.xrays.size() != inputs.setup.geometry.views.size())
   {
-    throw InputError("--xray", "the geometry has " + std::to_string(panels.size()) + " imagers; give one X-ray each, in order (got " +
-        std::to_string(sources.xrays.size()) + ")");
+    throw InputError("--xray", "the geometry has " + std::to_string(inputs.setup.geometry.views.size()) +
+        " imagers; give one X-ray each, in order (got " + std::to_string(sources.xrays.size()) + ")");
   }
-  if (!sources.rois.empty() && sources.rois.size() != panels.size())
+  if (!sources.rois.empty() && sources.rois.size() != inputs.setup.geometry.views.size())
   {
     throw InputError("--roi", "give one ROI per X-ray, in the same order");
   }
-  inputs.shrinkFactor = RegistrationShrinkFactor(panels, sources.size);
+  // Each X-ray's own panel: the imager's, or the imager's read out binned (xpose's own RT Images
+  // at --size, a room's 2x2 readout), whose pixels the registration then works in.
   std::vector<vtkImageData*> xrays, rois;
-  for (size_t v = 0; v < panels.size(); ++v)
+  for (size_t v = 0; v < sources.xrays.size(); ++v)
   {
     inputs.xrays.push_back(ReadXRayImage(sources.xrays[v]));
     xrays.push_back(inputs.xrays.back());
-    if (!sources.rois.empty())
-    {
-      inputs.rois.push_back(ReadMaskPNG(sources.rois[v], panels[v].Columns(), panels[v].Rows()));
-      rois.push_back(inputs.rois.back());
-    }
+    XRayView& panel = inputs.setup.geometry.views[v];
+    const std::array<int, 2> whole{ panel.Columns(), panel.Rows() };
+    panel = PanelOfXRay(panel, xrays[v], sources.xrays[v], inputs.setup.geometry.isocenter, inputs.setup.patient.position);
+    inputs.binning.push_back({ whole[0] / panel.Columns(), whole[1] / panel.Rows() });
+  }
+  const DRRSetup& setup = inputs.setup;
+  const std::vector<XRayView>& panels = setup.geometry.views;
+  inputs.shrinkFactor = RegistrationShrinkFactor(panels, sources.size);
+  for (size_t v = 0; v < panels.size() && !sources.rois.empty(); ++v)
+  {
+    inputs.rois.push_back(ReadMaskPNG(sources.rois[v], panels[v].Columns(), panels[v].Rows()));
+    rois.push_back(inputs.rois.back());
   }
   // An image intensifier's black corners are no anatomy: its disc joins the ROI.
   bool anyField = false;
@@ -147,6 +154,26 @@ RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
   inputs.targetInCT = ResolveTarget(sources.couch.target, ct, inputs.isoInCT);
   inputs.actionLevels = sources.couch.levels;
   return inputs;
+}
+
+XRayView PanelOfXRay(const XRayView& panel, vtkImageData* xray, const std::string& file, const Eigen::Vector3d& isocenter,
+  PatientPosition position)
+{
+  int dims[3];
+  xray->GetDimensions(dims);
+  if (dims[0] == panel.Columns() && dims[1] == panel.Rows())
+    return panel;
+  const std::optional<XRayView> binned = panel.Binned(dims[0], dims[1]);
+  if (!binned)
+    throw InputError(file, "is " + std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + " pixels; imager " + panel.name +
+        " of the geometry has " + std::to_string(panel.Columns()) + "x" + std::to_string(panel.Rows()) +
+        ": an X-ray must have its panel's size or divide it by a whole factor per axis (read out binned)");
+  // A DICOM X-ray's own pixel spacing decides between binning and another panel: it must agree.
+  for (const std::string& difference : XRayTagDisagreements(file, *binned, isocenter, ToString(position)))
+    if (difference.find("Pixel Spacing") != std::string::npos)
+      throw InputError(file, "read as imager " + panel.name + "'s panel binned " + std::to_string(panel.Columns() / dims[0]) + "x" +
+          std::to_string(panel.Rows() / dims[1]) + ", but its tags disagree: " + difference);
+  return *binned;
 }
 
 CouchDescription ResolveCouch(const StereoGeometry& geometry, const CouchOptions& options)

@@ -23,6 +23,7 @@
 #include <vtkImageData.h>
 #include <vtkSmartPointer.h>
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -88,10 +89,22 @@ struct RegistrationInputs
   /** Per X-ray: the image intensifier's circular field found in it (xpFieldOfView.h), whose
    *  outside is left out of the ROI. */
   std::vector<CircularField> fields;
+  /** Per X-ray: the binning of its imager's panel it was read out with ({1, 1}: the whole panel);
+   *  setup.geometry's views are then the binned panels (PanelOfXRay). */
+  std::vector<std::array<int, 2>> binning;
   CouchDescription couch;                 ///< the geometry's couch with the options' overrides
   Eigen::Vector3d targetInCT = Eigen::Vector3d::Zero(); ///< LPS mm: the treatment target (default isoInCT)
   ActionLevels actionLevels;
 };
+
+/**
+ * The panel an X-ray of imager `panel` was read out on: the panel itself, or the panel binned to
+ * the X-ray's size when that divides it by a whole factor per axis (the extent kept, the spacing
+ * scaled). Any other size, or a DICOM X-ray whose own pixel spacing disagrees with the binning,
+ * throws xp::InputError naming `file` and both sizes (or the tag).
+ */
+VTKXPSESSION_EXPORT XRayView PanelOfXRay(const XRayView& panel, vtkImageData* xray, const std::string& file,
+  const Eigen::Vector3d& isocenter, PatientPosition position);
 
 /** The couch of `geometry` (6dof without limits about the isocentre when it has none) with the
  *  options' overrides; throws xp::InputError naming --couch or --couch-rotation-limit. */

@@ -220,6 +220,7 @@ protected:
     drr.pose = "5,-3,2,1,-1,1.5";
     drr.outputDirectory = local + "/drr";
     drr.dicomOutputDirectory = local + "/xrays";
+    drr.size = "512x384"; // RT Images read out binned 2x2 from the geometry's 1024x768 panels
     EXPECT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
     this->StoreFolder(phantom.outputDirectory);
     this->StoreFolder(drr.dicomOutputDirectory);

@@ -569,6 +569,47 @@ TEST(Commands, RegisterRefusesImagesOfSomethingElse)
   EXPECT_FALSE(result.failures.empty()) << "a failure says why";
 }
 
+// X-rays read out binned: xpose's own RT Images at 512x384 register with the 1024x768 geometry
+// that made them (the panel's extent kept, its spacing doubled); a size that is no whole
+// fraction of the panel is refused, naming both sizes.
+TEST(Commands, BinnedXRaysRegisterWithTheirPanelsGeometry)
+{
+  ASSERT_EQ(std::system("rm -rf cmd-binned-drr cmd-binned-dicom cmd-binned-reg cmd-binned-odd cmd-binned-odd-reg"), 0);
+  xp::DRROptions drr = SmallDRR("cmd-binned-drr");
+  drr.size = "512x384";
+  drr.pose = "3,-2,1,1,0.5,-1";
+  drr.dicomOutputDirectory = "cmd-binned-dicom";
+  ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
+  xp::RegisterOptions options = RegisterSimulated("cmd-binned-dicom", "cmd-binned-reg");
+  options.xrays = { "cmd-binned-dicom/drr_A.dcm", "cmd-binned-dicom/drr_B.dcm" };
+  testing::internal::CaptureStdout();
+  const int code = xp::GuardedRun("register", [&] { return xp::RunRegister(options); });
+  const std::string output = testing::internal::GetCapturedStdout();
+  ASSERT_EQ(code, xp::ExitOk) << output;
+  EXPECT_NE(output.find("binned 2x2"), std::string::npos) << output;
+  const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-binned-reg/result.json");
+  EXPECT_LT((result.misalignment.translation - Eigen::Vector3d(3, -2, 1)).norm(), 0.5) << result.misalignment.ToString();
+  EXPECT_NEAR(result.misalignment.pitch, 1.0, 0.3);
+
+  // 600x450 of a 1024x768 panel: no binning gives it.
+  vtkNew<vtkImageData> odd;
+  odd->SetDimensions(600, 450, 1);
+  odd->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+  std::fill_n(static_cast<uint16_t*>(odd->GetScalarPointer()), 600 * 450, uint16_t(2000));
+  std::filesystem::create_directories("cmd-binned-odd");
+  xp::WritePNG(odd, "cmd-binned-odd/a.png");
+  xp::WritePNG(odd, "cmd-binned-odd/b.png");
+  options = RegisterSimulated("cmd-binned-odd", "cmd-binned-odd-reg");
+  options.xrays = { "cmd-binned-odd/a.png", "cmd-binned-odd/b.png" };
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput);
+  const std::string error = testing::internal::GetCapturedStderr();
+  EXPECT_NE(error.find("cmd-binned-odd/a.png"), std::string::npos) << error;
+  EXPECT_NE(error.find("600x450"), std::string::npos) << error;
+  EXPECT_NE(error.find("1024x768"), std::string::npos) << error;
+  EXPECT_FALSE(Exists("cmd-binned-odd-reg"));
+}
+
 TEST(Commands, RegisterBadInputExitsWithTwo)
 {
   xp::RegisterOptions options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");

@@ -62,6 +62,7 @@ TEST(Listen, RegistersEachPairSentAndForwardsTheREG)
     drr.pose = pose;
     drr.outputDirectory = folder + "/drr-" + pose;
     drr.dicomOutputDirectory = folder + "/xrays-" + pose;
+    drr.size = "512x384"; // RT Images read out binned 2x2 from the geometry's 1024x768 panels
     ASSERT_EQ(xp::GuardedRun("drr", [&] { return xp::RunDRR(drr); }), xp::ExitOk);
   }
 
@@ -92,6 +93,9 @@ TEST(Listen, RegistersEachPairSentAndForwardsTheREG)
   ASSERT_TRUE(xp::test::WaitFor(firstResult, 120)) << xp::ReadWholeFile(folder + "/listen.log");
   const Json::Value first = ReadJSON(study + "/result.json");
   EXPECT_EQ(first["status"].asString(), "ok");
+  EXPECT_TRUE(xp::test::WaitFor(
+    [&] { return xp::ReadWholeFile(folder + "/listen.log").find("; couch 6dof move") != std::string::npos; }, 20))
+    << "the log line gives the couch motion: " << xp::ReadWholeFile(folder + "/listen.log");
   EXPECT_NEAR(first["misalignment"]["translation_mm"][0].asDouble(), 5.0, 0.5);
   EXPECT_NEAR(first["misalignment"]["translation_mm"][1].asDouble(), -3.0, 0.5);
   const auto forwarded = [&] { return !std::filesystem::is_empty(folder + "/forwarded"); };

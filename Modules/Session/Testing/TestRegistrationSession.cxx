@@ -177,3 +177,46 @@ TEST(RegistrationSession, TheOptionsOverrideTheGeometrysCouch)
   options.rotationLimit = "nan";
   EXPECT_THROW(xp::ResolveCouch(room, options), xp::InputError);
 }
+
+// A binned X-ray keeps its panel's extent with the spacing scaled per axis; its imager's own size
+// is the panel itself; other sizes are refused naming the file and both sizes.
+TEST(RegistrationSession, AnXRayIsItsPanelOrThePanelBinned)
+{
+  xp::XRayView panel;
+  panel.name = "A";
+  panel.size = { 1024, 768 };
+  panel.pixelSpacing = { 0.4, 0.4 };
+  const auto xray = [](int columns, int rows)
+  {
+    vtkSmartPointer<vtkImageData> image = vtkSmartPointer<vtkImageData>::New();
+    image->SetDimensions(columns, rows, 1);
+    return image;
+  };
+  const Eigen::Vector3d iso = Eigen::Vector3d::Zero();
+  const xp::XRayView same = xp::PanelOfXRay(panel, xray(1024, 768), "a.png", iso, xp::PatientPosition::HFS);
+  EXPECT_EQ(same.Columns(), 1024);
+  EXPECT_EQ(same.pixelSpacing[0], 0.4);
+  const xp::XRayView binned = xp::PanelOfXRay(panel, xray(512, 384), "a.png", iso, xp::PatientPosition::HFS);
+  EXPECT_EQ(binned.Columns(), 512);
+  EXPECT_EQ(binned.Rows(), 384);
+  EXPECT_DOUBLE_EQ(binned.pixelSpacing[0], 0.8);
+  EXPECT_DOUBLE_EQ(binned.pixelSpacing[1], 0.8);
+  const xp::XRayView uneven = xp::PanelOfXRay(panel, xray(1024, 384), "a.png", iso, xp::PatientPosition::HFS);
+  EXPECT_DOUBLE_EQ(uneven.pixelSpacing[0], 0.4) << "columns kept";
+  EXPECT_DOUBLE_EQ(uneven.pixelSpacing[1], 0.8) << "rows binned";
+  for (const auto& [columns, rows] : std::vector<std::pair<int, int>>{ { 600, 450 }, { 2048, 1536 }, { 512, 300 } })
+  {
+    try
+    {
+      xp::PanelOfXRay(panel, xray(columns, rows), "a.png", iso, xp::PatientPosition::HFS);
+      ADD_FAILURE() << columns << "x" << rows << " passed";
+    }
+    catch (const xp::InputError& e)
+    {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("a.png"), std::string::npos) << message;
+      EXPECT_NE(message.find(std::to_string(columns) + "x" + std::to_string(rows)), std::string::npos) << message;
+      EXPECT_NE(message.find("1024x768"), std::string::npos) << message;
+    }
+  }
+}
