@@ -100,6 +100,9 @@ RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
   {
     throw InputError("--roi", "give one ROI per X-ray, in the same order");
   }
+  // --size must divide the whole panels (then binned ones too, checked below): refused before
+  // any X-ray is read.
+  RegistrationShrinkFactor(inputs.setup.geometry.views, sources.size);
   // Each X-ray's own panel: the imager's, or the imager's read out binned (xpose's own RT Images
   // at --size, a room's 2x2 readout), whose pixels the registration then works in.
   std::vector<vtkImageData*> xrays, rois;
