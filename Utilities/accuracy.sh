@@ -57,15 +57,15 @@ cell() { # NAME TRIALS ARGS...
   awk -F, -v name="$name" -v wrong="$wrong" '
     function median(a, n,   i, j, t) { for (i = 2; i <= n; i++) for (j = i; j > 1 && a[j-1] > a[j]; j--) { t = a[j]; a[j] = a[j-1]; a[j-1] = t }
       return n == 0 ? "-" : (n % 2 ? a[(n+1)/2] : (a[n/2] + a[n/2+1]) / 2) }
-    NR > 1 { n++; time[n] = $24
+    NR > 1 { n++; time[n] = $24; evals[n] = $26
       if (wrong) { if ($12 == "ok") oks++; next }
       if ($12 == "ok") { m++; mtre[m] = $19; ex[m] = $13; ey[m] = $14; ez[m] = $15; if ($19 >= 2) far++ }
       if ($12 == "ok" && $19 < 2) succ++
       if ($12 != "ok" && $19 < 1) falsefail++ }
-    END { if (wrong) { printf "| %s | %d | - | - | - | - | - | %d | %.1f |\n", name, n, oks, median(time, n); exit }
-      printf "| %s | %d | %d/%d | %s | %s %s %s | %d | %d | - | %.1f |\n", name, n, succ, n, (m ? sprintf("%.3f", median(mtre, m)) : "-"),
+    END { if (wrong) { printf "| %s | %d | - | - | - | - | - | %d | %.1f | %s |\n", name, n, oks, median(time, n), median(evals, n); exit }
+      printf "| %s | %d | %d/%d | %s | %s %s %s | %d | %d | - | %.1f | %s |\n", name, n, succ, n, (m ? sprintf("%.3f", median(mtre, m)) : "-"),
         (m ? sprintf("%+.2f", median(ex, m)) : "-"), (m ? sprintf("%+.2f", median(ey, m)) : "-"), (m ? sprintf("%+.2f", median(ez, m)) : "-"),
-        far, falsefail, median(time, n) }' "$dir/trials.csv"
+        far, falsefail, median(time, n), median(evals, n) }' "$dir/trials.csv"
 }
 
 if [ "$what" = matrix ]; then
@@ -82,8 +82,8 @@ if [ "$what" = matrix ]; then
   thorax=../shared/data/ct/thorax-crop/ct.nii.gz
   n=${2:-10}
   matrixOptions=("${@:3}")
-  echo "| cell | trials | success (ok, mTRE < 2 mm) | median mTRE of ok (mm) | median signed error of ok tx ty tz (mm) | ok beyond 2 mm | false failed (mTRE < 1 mm) | wrong-anatomy ok | median time (s) |"
-  echo "|---|---|---|---|---|---|---|---|---|"
+  echo "| cell | trials | success (ok, mTRE < 2 mm) | median mTRE of ok (mm) | median signed error of ok tx ty tz (mm) | ok beyond 2 mm | false failed (mTRE < 1 mm) | wrong-anatomy ok | median time (s) | median evaluations |"
+  echo "|---|---|---|---|---|---|---|---|---|---|"
   for ct in pelvis:$pelvis thorax:$thorax phantom:eval/phantom-ct-2mm phantom1mm:eval/phantom-ct-1mm pelvis3mm:eval/pelvis-ct-3mm.nii.gz; do
     for renderer in plastimatch clinical; do
       for format in linear12 linear16 log processed; do

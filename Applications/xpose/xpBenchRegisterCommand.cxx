@@ -253,7 +253,7 @@ int RunBenchRegister(const BenchRegisterOptions& options)
           ? optimizer + ", strides " + options.renderStrides[k] : optimizer;
         if (options.travels.size() > 1 || travel != "half")
           name += ", " + travel + " travel";
-        if (options.schedules.size() > 1 || schedule != "standard")
+        if (options.schedules.size() > 1 || schedule != "economy")
           name += ", " + schedule + " schedule";
         AccuracyEvaluation evaluation(scenario, ct.image, patient, geometry, settings);
         // The folder only carries the records: a fresh one per variant, removed afterwards.

@@ -95,7 +95,7 @@ struct BenchRegisterOptions
   std::vector<std::string> travels{ "half" };
   /** The schedules compared: "standard" and/or "economy" (StereoRegistrationSettings::schedule),
    *  each with every other variant. */
-  std::vector<std::string> schedules{ "standard" };
+  std::vector<std::string> schedules{ "economy" };
   unsigned seed = 11;
   double minTranslation = 1.0, maxTranslation = 20.0, maxRotation = 5.0;
   int threads = 0;

@@ -35,10 +35,10 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command
     ->add_option_function<std::string>(
       "--schedule", [&settings](const std::string& name) { settings.schedule = xp::ParseScheduleChoice(name, "--schedule"); },
-      "The registration's schedule of searches and refinement: standard, or economy (fewer evaluations; not yet judged on "
-      "the whole generalisation matrix: Algorithms.md, \"The schedule\")")
+      "The registration's schedule of searches and refinement: economy (searches travel on quarter-size images first, "
+      "stop looser, restart once) or standard (the earlier schedule: more and larger DRRs; Algorithms.md, \"The schedule\")")
     ->check(CLI::IsMember({ "standard", "economy" }))
-    ->default_str("standard");
+    ->default_str("economy");
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds of moving the refinement's end to the vertex of the objective's parabola along each axis, through its values "
     "1.5 mm and 1 degree either side (0: off)")->capture_default_str();

@@ -92,9 +92,10 @@ struct StereoRegistrationSettings
    *  instead of 1, and three cells' median mTRE grew by more than 0.05 mm (Performance.md,
    *  "Quarter-size travel"). */
   bool quarterSizeTravel = false;
-  /** The schedule of the searches and the refinement (MakeSchedule): the standard one, or the
-   *  economy one (fewer evaluations; Algorithms.md, "The schedule"). */
-  ScheduleChoice schedule = ScheduleChoice::Standard;
+  /** The schedule of the searches and the refinement (MakeSchedule): the economy one (the
+   *  default: quarter-size travel, looser stops, one restart) or the standard one it replaced
+   *  (Algorithms.md, "The schedule"). */
+  ScheduleChoice schedule = ScheduleChoice::Economy;
   /** Rounds of moving the refinement's end to the vertex of the objective's parabola along each
    *  axis, through its values landscapeNear either side (MoveToParabolaVertex: 12 evaluations
    *  and one more a round); 0: the refinement's end as it is. The refinement's small simplex

@@ -66,7 +66,7 @@ public:
   /** Where the rays are cast (--device): "cpu" (the default), "cuda" (refused by Run where no GPU
    *  can run it) or "auto". */
   void SetDevice(const std::string& device) { this->Device = device; }
-  /** The registration's schedule (--schedule): "standard" (the default) or "economy"; anything
+  /** The registration's schedule (--schedule): "economy" (the default) or "standard"; anything
    *  else is refused by Run. */
   void SetSchedule(const std::string& schedule) { this->Schedule = schedule; }
 
@@ -122,7 +122,7 @@ private:
   std::string Optimizer = "nelder-mead";
   bool EntropyMask = true;
   std::string Device = "cpu";
-  std::string Schedule = "standard";
+  std::string Schedule = "economy";
   std::string CouchMotions, CouchRotationLimit, Target;
   double ActionLevel[2] = { 0.0, 0.0 };
   double MaxUncorrected[2] = { std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity() };

@@ -657,6 +657,7 @@ TEST(RegistrationSchedule, ListsTheMethodsStagesInOrder)
 {
   using K = xp::StageKind;
   xp::StereoRegistrationSettings settings;
+  settings.schedule = xp::ScheduleChoice::Standard; // the economy's own test follows
   const auto kinds = [](const xp::RegistrationSchedule& schedule)
   {
     std::vector<K> out;
@@ -709,8 +710,11 @@ TEST(RegistrationSchedule, TheEconomyTravelsAtQuarterSizeAndStopsLooser)
 {
   xp::StereoRegistrationSettings settings;
   settings.schedule = xp::ScheduleChoice::Economy;
-  const xp::RegistrationSchedule standard = xp::MakeSchedule(xp::StereoRegistrationSettings{}, true, true, false);
+  xp::StereoRegistrationSettings standardSettings;
+  standardSettings.schedule = xp::ScheduleChoice::Standard;
+  const xp::RegistrationSchedule standard = xp::MakeSchedule(standardSettings, true, true, false);
   const xp::RegistrationSchedule economy = xp::MakeSchedule(settings, true, true, false);
+  EXPECT_EQ(xp::StereoRegistrationSettings{}.schedule, xp::ScheduleChoice::Economy) << "the default";
   ASSERT_EQ(economy.stages.size(), standard.stages.size() + 2) << "a quarter-size travel for each search";
   const xp::ScheduledStage& standardSearch = standard.stages[2];
   const xp::ScheduledStage& standardRefinement = standard.stages[4];
@@ -768,7 +772,10 @@ TEST(RegistrationSchedule, TheEconomyScheduleFindsThePoseCastingFewerRays)
   xp::StereoRegistrationSettings economy;
   economy.schedule = xp::ScheduleChoice::Economy;
   const xp::StereoRegistrationResult fewer = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, economy);
-  const xp::StereoRegistrationResult standard = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  xp::StereoRegistrationSettings standardSettings;
+  standardSettings.schedule = xp::ScheduleChoice::Standard;
+  const xp::StereoRegistrationResult standard =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, standardSettings);
   EXPECT_TRUE(fewer.ok) << (fewer.Reasons().empty() ? "" : fewer.Reasons().front());
   EXPECT_LT((fewer.misalignment.translation - truth.translation).norm(), 0.5);
   EXPECT_NEAR(fewer.misalignment.yaw, truth.yaw, 0.3);
