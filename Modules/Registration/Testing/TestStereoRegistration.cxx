@@ -698,7 +698,9 @@ TEST(RegistrationSchedule, ListsTheMethodsStagesInOrder)
   EXPECT_EQ(kinds(xp::MakeSchedule(settings, true, true, false)),
     (std::vector<K>{ K::PreAlignment, K::Masks, K::Search, K::Refinement, K::Polish, K::Landscape, K::Gate }));
 
-  const xp::RegistrationSchedule bone = xp::MakeSchedule(xp::StereoRegistrationSettings{}, true, true, true);
+  xp::StereoRegistrationSettings standard;
+  standard.schedule = xp::ScheduleChoice::Standard;
+  const xp::RegistrationSchedule bone = xp::MakeSchedule(standard, true, true, true);
   EXPECT_EQ(bone.stages[0].rounds, 0) << "a bone's start is evaluated, not pre-aligned";
   EXPECT_EQ(bone.stages[5].kind, K::Restarts);
   EXPECT_EQ(bone.stages[5].rounds, 4);
@@ -833,6 +835,7 @@ TEST(StereoRegistration, CoarseSearchesTravelAtQuarterSizeOnLargeViews)
   const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
   const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 512, 384);
   xp::StereoRegistrationSettings quarterFirst;
+  quarterFirst.schedule = xp::ScheduleChoice::Standard; // the option on the standard schedule
   quarterFirst.quarterSizeTravel = true;
   const xp::StereoRegistrationResult result =
     xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, quarterFirst);
@@ -860,7 +863,10 @@ TEST(StereoRegistration, CoarseSearchesTravelAtQuarterSizeOnLargeViews)
   EXPECT_LT((result.misalignment.translation - truth.translation).norm(), 0.5);
   EXPECT_NEAR(result.misalignment.yaw, truth.yaw, 0.3);
 
-  const xp::StereoRegistrationResult without = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  xp::StereoRegistrationSettings standard;
+  standard.schedule = xp::ScheduleChoice::Standard;
+  const xp::StereoRegistrationResult without =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, standard);
   EXPECT_EQ(stage(without, "coarse search (quarter resolution)"), nullptr);
   EXPECT_NE(stage(without, "coarse search (half resolution)"), nullptr);
 }
