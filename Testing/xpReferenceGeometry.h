@@ -1,4 +1,4 @@
-// The reference stereo geometry of GEOMETRY.md, built in code so tests need no file; shared by
+// The reference stereo geometry of Coordinates.md, built in code so tests need no file; shared by
 // the tests of every module.
 #ifndef xpReferenceGeometry_h
 #define xpReferenceGeometry_h

@@ -43,7 +43,7 @@ struct DRROptions
   std::string ct;             ///< DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack
   std::string series;         ///< Series Instance UID when the folder holds several
   std::string voxelSize;      ///< "x,y,z" mm, for a TIFF stack
-  std::string geometry;       ///< geometry JSON (GEOMETRY.md)
+  std::string geometry;       ///< geometry JSON (Coordinates.md)
   std::string size;           ///< "COLSxROWS"; empty = the panel's own size
   std::string pose = "0,0,0,0,0,0";
   std::string isocenterInCT;  ///< "x,y,z" LPS mm; empty = CT centre

@@ -1,4 +1,4 @@
-// xpose geometry: the geometry file (GEOMETRY.md) from what calibrated systems provide.
+// xpose geometry: the geometry file (Coordinates.md) from what calibrated systems provide.
 #include "xpCommands.h"
 
 #include "xpError.h"

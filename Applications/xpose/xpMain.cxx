@@ -123,7 +123,7 @@ CLI::App* AddDRRCommand(CLI::App& app, xp::DRROptions& options)
   drrCommand->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack")->required();
   drrCommand->add_option("--series", options.series, "Series Instance UID when the folder holds several");
   drrCommand->add_option("--voxel-size", options.voxelSize, VoxelSizeHelp);
-  drrCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON (GEOMETRY.md)")->required();
+  drrCommand->add_option("--geometry", options.geometry, "Stereo geometry JSON (Coordinates.md)")->required();
   drrCommand->add_option("--size", options.size, "Output COLSxROWS on the same panel (default: the panel's)");
   drrCommand->add_option("--pose", options.pose, "Patient misalignment tx,ty,tz,pitch,roll,yaw (mm, degrees, room)")
     ->capture_default_str();
@@ -200,7 +200,7 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
 
 CLI::App* AddMaskCommand(CLI::App& app, xp::MaskOptions& options)
 {
-  CLI::App* maskCommand = app.add_subcommand("mask", "Block-entropy validity mask of an X-ray (METHOD.md section 3)");
+  CLI::App* maskCommand = app.add_subcommand("mask", "Block-entropy validity mask of an X-ray (Method.md, stage 2)");
   maskCommand->add_option("--xray", options.xray, "X-ray: 16-bit PNG with 12-bit values")->required();
   maskCommand->add_option("--roi", options.roi, "User ROI PNG of the same size (non-zero = allowed)");
   maskCommand->add_option("--window", options.window, "Block size at half resolution")->capture_default_str();

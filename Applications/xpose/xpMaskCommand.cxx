@@ -28,7 +28,7 @@ int RunMask(const MaskOptions& options)
   {
     roi = ReadMaskPNG(options.roi, dims[0], dims[1]);
   }
-  // METHOD.md's mask bins 12-bit values; a deeper X-ray is scaled to 12 bits. (`register` takes
+  // Method.md's mask bins 12-bit values; a deeper X-ray is scaled to 12 bits. (`register` takes
   // its masks in the DRR's transmission domain, which needs the CT: Algorithms.md.)
   const size_t count = static_cast<size_t>(dims[0]) * dims[1];
   auto* values = static_cast<uint16_t*>(xray->GetScalarPointer());

@@ -43,6 +43,106 @@ std::string FrameName(size_t index)
   return name;
 }
 
+/** poses.csv's header for `views` X-rays per frame. */
+std::string PosesCSVHeader(size_t views)
+{
+  std::ostringstream csv;
+  csv << "frame";
+  for (size_t v = 0; v < views; ++v)
+    csv << ",xray_" << static_cast<char>('a' + v);
+  csv << ",status,tx_mm,ty_mm,tz_mm,pitch_deg,roll_deg,yaw_deg,uncertainty_tx_mm,uncertainty_ty_mm,uncertainty_tz_mm,"
+         "uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s";
+  // After the columns: per view, the median distance (mm at the isocentre) from the DRR's
+  // edges to the X-ray's, and the same with the DRR moved 3 mm (what chance gives).
+  for (size_t v = 0; v < views; ++v)
+    csv << ",edge_distance_" << static_cast<char>('a' + v) << "_mm,edge_distance_moved_" << static_cast<char>('a' + v) << "_mm";
+  // Then the couch motion of an ok frame (empty for a failed one): result.json's `couch`.
+  csv << ",couch_action,couch_tx_mm,couch_ty_mm,couch_tz_mm,couch_pitch_deg,couch_roll_deg,couch_yaw_deg,"
+         "uncorrected_pitch_deg,uncorrected_roll_deg,uncorrected_yaw_deg,couch_limited_by";
+  csv << "\n";
+  return csv.str();
+}
+
+/** One frame's row of poses.csv: its X-rays, the record's status, pose, uncertainty, time, edges
+ *  and couch motion. */
+std::string PosesCSVRow(size_t frame, const std::vector<std::string>& files, const RegistrationRecord& record)
+{
+  std::ostringstream csv;
+  const std::array<double, 6> p = record.misalignment.Parameters();
+  csv << frame;
+  for (const std::string& file : files)
+    csv << "," << file;
+  csv << "," << (record.ok ? "ok" : "failed");
+  csv << std::setprecision(6);
+  for (double value : p)
+    csv << "," << value;
+  for (double value : record.uncertainty)
+    csv << "," << value;
+  csv << "," << record.totalSeconds;
+  for (size_t v = 0; v < files.size(); ++v)
+    csv << "," << (v < record.edgeDistanceMM.size() ? record.edgeDistanceMM[v] : -1.0) << ","
+        << (v < record.edgeDistanceShiftedMM.size() ? record.edgeDistanceShiftedMM[v] : -1.0);
+  if (record.couch)
+  {
+    const CouchMotion& couch = *record.couch;
+    std::string limits;
+    for (const std::string& limit : couch.limitedBy)
+      limits += (limits.empty() ? "" : " ") + limit;
+    csv << "," << CouchActionName(couch.action) << "," << couch.motion.translation[0] << "," << couch.motion.translation[1]
+        << "," << couch.motion.translation[2] << "," << couch.motion.pitch << "," << couch.motion.roll << ","
+        << couch.motion.yaw << "," << couch.uncorrected.pitch << "," << couch.uncorrected.roll << ","
+        << couch.uncorrected.yaw << "," << limits;
+  }
+  else
+    csv << ",,,,,,,,,,,";
+  csv << "\n";
+  return csv.str();
+}
+
+/** One frame's entry of poses.json. */
+Json::Value PoseItem(size_t frame, const std::vector<std::string>& files, const char* startedFrom, const RegistrationRecord& record)
+{
+  const std::array<double, 6> p = record.misalignment.Parameters();
+  Json::Value item;
+  item["frame"] = static_cast<Json::UInt64>(frame);
+  for (const std::string& file : files)
+    item["xrays"].append(file);
+  item["status"] = record.ok ? "ok" : "failed";
+  item["start"] = startedFrom;
+  for (size_t k = 0; k < 6; ++k)
+  {
+    static const char* names[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
+    item["misalignment"][names[k]] = p[k];
+    item["uncertainty"][names[k]] =
+      std::isfinite(record.uncertainty[k]) ? Json::Value(record.uncertainty[k]) : Json::Value(Json::nullValue); // no maximum
+  }
+  for (const std::string& reason : record.Reasons())
+    item["reasons"].append(reason);
+  if (record.couch)
+  {
+    const CouchMotion& couch = *record.couch;
+    item["couch"]["action"] = CouchActionName(couch.action);
+    for (int k = 0; k < 3; ++k)
+      item["couch"]["translation_mm"].append(couch.motion.translation[k]);
+    item["couch"]["rotation_deg"]["pitch"] = couch.motion.pitch;
+    item["couch"]["rotation_deg"]["roll"] = couch.motion.roll;
+    item["couch"]["rotation_deg"]["yaw"] = couch.motion.yaw;
+    item["couch"]["uncorrected_rotation_deg"]["pitch"] = couch.uncorrected.pitch;
+    item["couch"]["uncorrected_rotation_deg"]["roll"] = couch.uncorrected.roll;
+    item["couch"]["uncorrected_rotation_deg"]["yaw"] = couch.uncorrected.yaw;
+    item["couch"]["limited_by"] = Json::Value(Json::arrayValue);
+    for (const std::string& limit : couch.limitedBy)
+      item["couch"]["limited_by"].append(limit);
+  }
+  item["time_s"] = record.totalSeconds;
+  for (size_t v = 0; v < record.edgeDistanceMM.size() && v < record.viewNames.size(); ++v)
+  {
+    item["edge_distance_mm"][record.viewNames[v]] = record.edgeDistanceMM[v];
+    item["edge_distance_moved_3mm"][record.viewNames[v]] = record.edgeDistanceShiftedMM[v];
+  }
+  return item;
+}
+
 } // namespace
 
 int RunTrack(const TrackOptions& options)
@@ -62,19 +162,7 @@ int RunTrack(const TrackOptions& options)
   StagedOutputDirectory output(options.outputDirectory);
 
   std::ostringstream csv;
-  csv << "frame";
-  for (size_t v = 0; v < frames.front().size(); ++v)
-    csv << ",xray_" << static_cast<char>('a' + v);
-  csv << ",status,tx_mm,ty_mm,tz_mm,pitch_deg,roll_deg,yaw_deg,uncertainty_tx_mm,uncertainty_ty_mm,uncertainty_tz_mm,"
-         "uncertainty_pitch_deg,uncertainty_roll_deg,uncertainty_yaw_deg,time_s";
-  // After the columns: per view, the median distance (mm at the isocentre) from the DRR's
-  // edges to the X-ray's, and the same with the DRR moved 3 mm (what chance gives).
-  for (size_t v = 0; v < frames.front().size(); ++v)
-    csv << ",edge_distance_" << static_cast<char>('a' + v) << "_mm,edge_distance_moved_" << static_cast<char>('a' + v) << "_mm";
-  // Then the couch motion of an ok frame (empty for a failed one): result.json's `couch`.
-  csv << ",couch_action,couch_tx_mm,couch_ty_mm,couch_tz_mm,couch_pitch_deg,couch_roll_deg,couch_yaw_deg,"
-         "uncorrected_pitch_deg,uncorrected_roll_deg,uncorrected_yaw_deg,couch_limited_by";
-  csv << "\n";
+  csv << PosesCSVHeader(frames.front().size());
   Json::Value poses(Json::arrayValue);
   std::string start = options.registration.initialPose;
   bool allOk = true, previousOk = true;
@@ -112,71 +200,8 @@ int RunTrack(const TrackOptions& options)
     pose << std::setprecision(10) << p[0] << "," << p[1] << "," << p[2] << "," << p[3] << "," << p[4] << "," << p[5];
     start = pose.str();
 
-    csv << f + 1;
-    for (const std::string& file : frames[f])
-      csv << "," << file;
-    csv << "," << (record.ok ? "ok" : "failed");
-    csv << std::setprecision(6);
-    for (double value : p)
-      csv << "," << value;
-    for (double value : record.uncertainty)
-      csv << "," << value;
-    csv << "," << record.totalSeconds;
-    for (size_t v = 0; v < frames[f].size(); ++v)
-      csv << "," << (v < record.edgeDistanceMM.size() ? record.edgeDistanceMM[v] : -1.0) << ","
-          << (v < record.edgeDistanceShiftedMM.size() ? record.edgeDistanceShiftedMM[v] : -1.0);
-    if (record.couch)
-    {
-      const CouchMotion& couch = *record.couch;
-      std::string limits;
-      for (const std::string& limit : couch.limitedBy)
-        limits += (limits.empty() ? "" : " ") + limit;
-      csv << "," << CouchActionName(couch.action) << "," << couch.motion.translation[0] << "," << couch.motion.translation[1]
-          << "," << couch.motion.translation[2] << "," << couch.motion.pitch << "," << couch.motion.roll << ","
-          << couch.motion.yaw << "," << couch.uncorrected.pitch << "," << couch.uncorrected.roll << ","
-          << couch.uncorrected.yaw << "," << limits;
-    }
-    else
-      csv << ",,,,,,,,,,,";
-    csv << "\n";
-    Json::Value item;
-    item["frame"] = static_cast<Json::UInt64>(f + 1);
-    for (const std::string& file : frames[f])
-      item["xrays"].append(file);
-    item["status"] = record.ok ? "ok" : "failed";
-    item["start"] = startedFrom;
-    for (size_t k = 0; k < 6; ++k)
-    {
-      static const char* names[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
-      item["misalignment"][names[k]] = p[k];
-      item["uncertainty"][names[k]] =
-        std::isfinite(record.uncertainty[k]) ? Json::Value(record.uncertainty[k]) : Json::Value(Json::nullValue); // no maximum
-    }
-    for (const std::string& reason : record.Reasons())
-      item["reasons"].append(reason);
-    if (record.couch)
-    {
-      const CouchMotion& couch = *record.couch;
-      item["couch"]["action"] = CouchActionName(couch.action);
-      for (int k = 0; k < 3; ++k)
-        item["couch"]["translation_mm"].append(couch.motion.translation[k]);
-      item["couch"]["rotation_deg"]["pitch"] = couch.motion.pitch;
-      item["couch"]["rotation_deg"]["roll"] = couch.motion.roll;
-      item["couch"]["rotation_deg"]["yaw"] = couch.motion.yaw;
-      item["couch"]["uncorrected_rotation_deg"]["pitch"] = couch.uncorrected.pitch;
-      item["couch"]["uncorrected_rotation_deg"]["roll"] = couch.uncorrected.roll;
-      item["couch"]["uncorrected_rotation_deg"]["yaw"] = couch.uncorrected.yaw;
-      item["couch"]["limited_by"] = Json::Value(Json::arrayValue);
-      for (const std::string& limit : couch.limitedBy)
-        item["couch"]["limited_by"].append(limit);
-    }
-    item["time_s"] = record.totalSeconds;
-    for (size_t v = 0; v < record.edgeDistanceMM.size() && v < record.viewNames.size(); ++v)
-    {
-      item["edge_distance_mm"][record.viewNames[v]] = record.edgeDistanceMM[v];
-      item["edge_distance_moved_3mm"][record.viewNames[v]] = record.edgeDistanceShiftedMM[v];
-    }
-    poses.append(item);
+    csv << PosesCSVRow(f + 1, frames[f], record);
+    poses.append(PoseItem(f + 1, frames[f], startedFrom, record));
   }
   std::ofstream(output.Path("poses.csv")) << csv.str();
   Json::StreamWriterBuilder writer;

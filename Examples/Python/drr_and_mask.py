@@ -27,7 +27,7 @@ def write_png(port, path):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ct", required=True, help="CT: a DICOM series folder")
-    parser.add_argument("--geometry", required=True, help="stereo geometry JSON (GEOMETRY.md)")
+    parser.add_argument("--geometry", required=True, help="stereo geometry JSON (Coordinates.md)")
     parser.add_argument("--view", type=int, default=0, help="index of the imager in the geometry")
     parser.add_argument("--pose", default="0,0,0,0,0,0", help="misalignment tx,ty,tz (mm),pitch,roll,yaw (degrees)")
     parser.add_argument("--out-dir", required=True)

@@ -19,7 +19,7 @@ import xpose
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ct", required=True, help="CT: a DICOM series folder")
-    parser.add_argument("--geometry", required=True, help="stereo geometry JSON (GEOMETRY.md)")
+    parser.add_argument("--geometry", required=True, help="stereo geometry JSON (Coordinates.md)")
     parser.add_argument("--xray", action="append", required=True, help="12-bit PNG per imager, in order")
     parser.add_argument("--size", default="", help="registration size COLSxROWS, dividing the panels")
     parser.add_argument("--no-entropy-mask", action="store_true", help="register the whole images")

@@ -5,7 +5,7 @@
  * Port 0: the CT (vtkImageData, HU, any scalar type; origin/spacing/DirectionMatrix give LPS mm).
  * Port 1 (optional): a validity mask on the output grid (unsigned char, non-zero = trace the ray).
  *
- * The CT is placed in the room by the PatientSetup (planned set-up, GEOMETRY.md), then moved by the patient Misalignment (mm, degrees). Outputs, all on the panel
+ * The CT is placed in the room by the PatientSetup (planned set-up, Coordinates.md), then moved by the patient Misalignment (mm, degrees). Outputs, all on the panel
  * grid with rows bottom-up as VTK stores them and placed in Room coordinates:
  *  - port 0: 12-bit transmission round(4095 exp(-integral)) as unsigned short (0 where masked);
  *  - port 1: the line integral of mu as float (0 where masked);
@@ -53,7 +53,7 @@ public:
   void SetPatientSetup(const xp::PatientSetup& setup);
   const xp::PatientSetup& GetPatientSetup() const { return this->Setup; }
 
-  /** Patient misalignment in Room terms (GEOMETRY.md): translation mm, pitch/roll/yaw degrees. */
+  /** Patient misalignment in Room terms (Coordinates.md): translation mm, pitch/roll/yaw degrees. */
   void SetMisalignment(const xp::Pose& pose);
   const xp::Pose& GetMisalignment() const { return this->Misalignment; }
 

@@ -205,37 +205,11 @@ private:
   int Status = Z_OK;
 };
 
-} // namespace
-
-CTVolume ReadMetaImage(const std::string& path)
+/** The volume's size, spacing, placement and voxel type from a MetaImage header, checked. */
+VolumeHeader MetaVolumeHeader(const MetaHeaderText& text, const std::string& path)
 {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-  {
-    throw InputError(path, "cannot open the MetaImage file");
-  }
-  const MetaHeaderText text = ReadHeaderText(in, path);
-  const auto field = [&](const std::string& key) {
-    const auto it = text.fields.find(key);
-    return it == text.fields.end() ? std::string() : it->second;
-  };
-  if (!field("ObjectType").empty() && field("ObjectType") != "Image")
-  {
-    throw InputError(path, "ObjectType: '" + field("ObjectType") + "' is not Image");
-  }
-  if (field("NDims") != "3")
-  {
-    throw InputError(path, "NDims: '" + field("NDims") + "', a CT volume needs 3");
-  }
-  if (!field("ElementNumberOfChannels").empty() && field("ElementNumberOfChannels") != "1")
-  {
-    throw InputError(path, "ElementNumberOfChannels: a CT volume has one channel");
-  }
-  if (!field("BinaryData").empty() && !Flag(text, "BinaryData", path))
-  {
-    throw InputError(path, "BinaryData: text (ASCII) voxel data is not supported");
-  }
-
+  const auto it = text.fields.find("ElementType");
+  const std::string elementType = it == text.fields.end() ? std::string() : it->second;
   VolumeHeader header;
   const std::vector<double> dims = Numbers(text, "DimSize", 3, path);
   if (dims.empty())
@@ -268,9 +242,44 @@ CTVolume ReadMetaImage(const std::string& path)
     for (size_t k = 0; k < m.size(); ++k)
       header.direction(k % 3, k / 3) = m[k];
   }
-  header.type = ElementType(field("ElementType"), path);
+  header.type = ElementType(elementType, path);
   header.bigEndian = Flag(text, "BinaryDataByteOrderMSB", path) || Flag(text, "ElementByteOrderMSB", path);
   CheckVolumeHeader(header, path, MetaFields);
+  return header;
+}
+
+} // namespace
+
+CTVolume ReadMetaImage(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+  {
+    throw InputError(path, "cannot open the MetaImage file");
+  }
+  const MetaHeaderText text = ReadHeaderText(in, path);
+  const auto field = [&](const std::string& key) {
+    const auto it = text.fields.find(key);
+    return it == text.fields.end() ? std::string() : it->second;
+  };
+  if (!field("ObjectType").empty() && field("ObjectType") != "Image")
+  {
+    throw InputError(path, "ObjectType: '" + field("ObjectType") + "' is not Image");
+  }
+  if (field("NDims") != "3")
+  {
+    throw InputError(path, "NDims: '" + field("NDims") + "', a CT volume needs 3");
+  }
+  if (!field("ElementNumberOfChannels").empty() && field("ElementNumberOfChannels") != "1")
+  {
+    throw InputError(path, "ElementNumberOfChannels: a CT volume has one channel");
+  }
+  if (!field("BinaryData").empty() && !Flag(text, "BinaryData", path))
+  {
+    throw InputError(path, "BinaryData: text (ASCII) voxel data is not supported");
+  }
+
+  const VolumeHeader header = MetaVolumeHeader(text, path);
 
   // The voxel data: after the header (LOCAL) or in a file beside it.
   const std::string dataFile = field("ElementDataFile");

@@ -1,6 +1,6 @@
 /**
  * @file xpPose.h
- * @brief Patient pose conventions of GEOMETRY.md: misalignment, table correction, CT to Room.
+ * @brief Patient pose conventions of Coordinates.md: misalignment, table correction, CT to Room.
  *
  * A Pose acts on Room points about the isocentre: p' = R (p - iso) + iso + t, with
  * R = Rz(yaw) * Ry(roll) * Rx(pitch); pitch about X (lateral), roll about Y (longitudinal),

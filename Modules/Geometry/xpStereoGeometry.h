@@ -1,6 +1,6 @@
 /**
  * @file xpStereoGeometry.h
- * @brief The room's X-ray system: isocentre, imagers and couch, and its JSON file (GEOMETRY.md).
+ * @brief The room's X-ray system: isocentre, imagers and couch, and its JSON file (Coordinates.md).
  *
  * The file's `format_version` is 1 when absent (isocentre and imagers) and 2 with a `couch`
  * object; a version this reader does not know is refused.

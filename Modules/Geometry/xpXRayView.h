@@ -4,7 +4,7 @@
  *
  * Pixel (col i, row j) has its centre at
  *   center + (i - (cols-1)/2) * du * rowDirection + (j - (rows-1)/2) * dv * columnDirection,
- * row 0 being the first (top) row as stored in DICOM and PNG (GEOMETRY.md).
+ * row 0 being the first (top) row as stored in DICOM and PNG (Coordinates.md).
  */
 #ifndef xpXRayView_h
 #define xpXRayView_h

@@ -1,6 +1,6 @@
 /**
  * @class vtkXPEntropyMaskFilter
- * @brief Block-entropy validity mask of a 12-bit X-ray (METHOD.md section 3), AND a user ROI.
+ * @brief Block-entropy validity mask of a 12-bit X-ray (Method.md, stage 2), AND a user ROI.
  *
  * Port 0: the X-ray (unsigned short, 12-bit values). Port 1 (optional): a user ROI of the same
  * size (unsigned char, non-zero = allowed). Output 0: the mask (unsigned char, 255 valid, 0 not);

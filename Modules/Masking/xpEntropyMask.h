@@ -1,6 +1,6 @@
 /**
  * @file xpEntropyMask.h
- * @brief Automatic exclusion of low-information regions of an X-ray (METHOD.md section 3).
+ * @brief Automatic exclusion of low-information regions of an X-ray (Method.md, stage 2).
  *
  * Half resolution (2x2 mean), 3x3 Gaussian ([1 2 1]/4 each way), grey levels binned
  * `binWidth` wide (12-bit input, 32 -> 128 bins), Shannon entropy (natural log) of every

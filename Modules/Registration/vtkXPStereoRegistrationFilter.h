@@ -1,6 +1,6 @@
 /**
  * @class vtkXPStereoRegistrationFilter
- * @brief 6-DOF pose of a CT from N X-ray views (METHOD.md): pre-alignment, entropy masks,
+ * @brief 6-DOF pose of a CT from N X-ray views (Method.md): pre-alignment, entropy masks,
  *        masked mutual-information alignment and a quality gate, as one pipeline stage. This is
  *        the registration `xpose register` and `xpose evaluate` run.
  *
@@ -83,7 +83,7 @@ public:
   bool GetEntropyMask() const { return this->Settings.entropyMask; }
   /** After an update: ok (the correction may be applied) or failed. */
   bool GetResultOk() const { return this->Result.ok; }
-  /** tx, ty, tz (mm), pitch, roll, yaw (degrees) in Room terms (GEOMETRY.md). */
+  /** tx, ty, tz (mm), pitch, roll, yaw (degrees) in Room terms (Coordinates.md). */
   vtkGetVector6Macro(MisalignmentParameters, double);
   vtkGetVector6Macro(CorrectionParameters, double);
   /** The result as the record `xpose register` writes to result.json, without its inputs. */

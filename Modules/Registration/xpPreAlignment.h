@@ -1,6 +1,6 @@
 /**
  * @file xpPreAlignment.h
- * @brief The 5+1-DOF pre-alignment of METHOD.md step 2: per view a 2D/2D registration of the
+ * @brief The 5+1-DOF pre-alignment of Method.md, stage 1: per view a 2D/2D registration of the
  *        DRR onto the X-ray (shift u, shift v, in-plane rotation; MI; downhill simplex), then
  *        inverse projection of both 2D results into one 3D rigid update, repeated while it helps.
  */

@@ -82,6 +82,71 @@ Json::Value CouchValue(const CouchMotion& c, const ActionLevels& levels, const E
   return value;
 }
 
+/** result.json's `inputs`. */
+Json::Value InputsValue(const RegistrationRecordInputs& in)
+{
+  Json::Value inputs(Json::objectValue);
+  inputs["ct"] = in.ct;
+  inputs["series"] = in.series;
+  inputs["voxel_size"] = in.voxelSize;
+  inputs["geometry"] = in.geometry;
+  inputs["xrays"] = List(in.xrays);
+  inputs["xray_md5"] = List(in.xrayMD5);
+  inputs["rois"] = List(in.rois);
+  inputs["size"] = in.size;
+  inputs["iso_ct"] = in.isocenterInCT;
+  inputs["mu_water"] = in.muWater;
+  inputs["entropy_mask"] = in.entropyMask;
+  inputs["remove_table"] = in.removeTable;
+  return inputs;
+}
+
+/** result.json's `convergence.stages`, `prealignment_2d` and `schedule`. */
+void WriteConvergence(const RegistrationRecord& r, Json::Value& root)
+{
+  Json::Value& stages = root["convergence"]["stages"] = Json::Value(Json::arrayValue);
+  for (const RegistrationStage& stage : r.stages)
+  {
+    Json::Value item(Json::objectValue);
+    item["name"] = stage.name;
+    item["first_evaluation"] = stage.firstEvaluation;
+    item["evaluations"] = stage.evaluations;
+    item["image_divisor"] = stage.imageDivisor;
+    item["seconds"] = stage.seconds;
+    stages.append(item);
+  }
+  root["prealignment_2d"]["iterations"] = r.prealignIterations;
+  root["prealignment_2d"]["drrs"] = static_cast<Json::Int64>(r.prealignDRRs);
+  Json::Value& schedule = root["schedule"] = Json::Value(Json::arrayValue);
+  for (const ScheduledStage& stage : r.schedule.stages)
+  {
+    Json::Value item(Json::objectValue);
+    item["kind"] = StageKindName(stage.kind);
+    item["name"] = stage.name;
+    item["image_divisor"] = stage.imageDivisor;
+    if (stage.kind == StageKind::Search)
+    {
+      item["track"] = stage.track;
+      item["stops_at_first_track_end"] = stage.stopAtFirstEnd;
+    }
+    if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement || stage.kind == StageKind::Restarts)
+    {
+      const PoseOptimizerSettings& o = stage.optimizer;
+      Json::Value& optimizer = item["optimizer"];
+      optimizer["method"] = PoseOptimizerMethodName(o.method);
+      optimizer["step_mm"] = o.initialStepMM;
+      optimizer["step_deg"] = o.initialStepDegrees;
+      optimizer["tolerance_mm"] = o.toleranceMM;
+      optimizer["tolerance_deg"] = o.toleranceDegrees;
+      optimizer["max_evaluations"] = o.maxEvaluations;
+      optimizer["restarts"] = o.maxRestarts;
+    }
+    if (stage.rounds > 0)
+      item["rounds"] = stage.rounds;
+    schedule.append(item);
+  }
+}
+
 /** A parsed record with errors that name the file and the field. */
 class Fields
 {
@@ -180,6 +245,163 @@ private:
   const Json::Value& Root;
   std::string Origin;
 };
+
+/** result.json's `couch` block (CouchValue's), the target it puts back and the action levels. */
+CouchMotion CouchAt(const Fields& f, Eigen::Vector3d& targetInCT, ActionLevels& levels)
+{
+  CouchMotion c;
+  const std::string motions = f.Text("couch.couch");
+  if (motions != "6dof" && motions != "4dof")
+    f.Fail("couch.couch", "must be 6dof or 4dof");
+  c.couch.motions = ParseCouchMotions(motions, "couch.couch");
+  if (f.At("couch.rotation_limit_deg").isNumeric())
+    c.couch.pitchRollLimitDegrees = f.Number("couch.rotation_limit_deg");
+  const auto point = [&f](const std::string& field)
+  {
+    const std::vector<double> p = f.Numbers(field);
+    if (p.size() != 3)
+      f.Fail(field, "must hold 3 numbers");
+    return Eigen::Vector3d(p[0], p[1], p[2]);
+  };
+  const auto angles = [&f](const std::string& field, Pose& pose)
+  {
+    pose.pitch = f.Number(field + ".pitch");
+    pose.roll = f.Number(field + ".roll");
+    pose.yaw = f.Number(field + ".yaw");
+  };
+  c.motion.translation = point("couch.translation_mm");
+  angles("couch.rotation_deg", c.motion);
+  c.rotationCenter = point("couch.rotation_center");
+  c.couch.rotationCenter = c.rotationCenter;
+  targetInCT = point("couch.target_ct");
+  c.target = point("couch.target_room");
+  angles("couch.uncorrected_rotation_deg", c.uncorrected);
+  c.uncorrected.translation = point("couch.uncorrected_translation_mm");
+  c.uncorrectedAt50MM = f.Number("couch.uncorrected_mm_at_50");
+  c.uncorrectedAt100MM = f.Number("couch.uncorrected_mm_at_100");
+  c.limitedBy = f.Texts("couch.limited_by");
+  const std::string action = f.Text("couch.action");
+  bool known = false;
+  for (CouchAction a : { CouchAction::NoneNeeded, CouchAction::Move, CouchAction::SetUpAgain })
+    if (CouchActionName(a) == action)
+    {
+      c.action = a;
+      known = true;
+    }
+  if (!known)
+    f.Fail("couch.action", "must be none_needed, move or set_up_again");
+  c.actionReason = f.Text("couch.action_reason");
+  const auto limit = [&f](const std::string& field)
+  { return f.At(field).isNumeric() ? f.Number(field) : std::numeric_limits<double>::infinity(); };
+  levels.actionMM = f.Number("couch.action_levels.mm");
+  levels.actionDegrees = f.Number("couch.action_levels.deg");
+  levels.maxUncorrectedMM = limit("couch.action_levels.max_uncorrected_mm");
+  levels.maxUncorrectedDegrees = limit("couch.action_levels.max_uncorrected_deg");
+  return c;
+}
+
+/** result.json's `inputs`: the files and options a command registered. */
+RegistrationRecordInputs InputsAt(const Fields& f, const Json::Value& inputs)
+{
+  RegistrationRecordInputs in;
+  in.ct = f.Text("inputs.ct");
+  in.series = f.Text("inputs.series");
+  if (inputs.isMember("voxel_size")) // absent in records written before TIFF volumes
+    in.voxelSize = f.Text("inputs.voxel_size");
+  in.geometry = f.Text("inputs.geometry");
+  in.xrays = f.Texts("inputs.xrays");
+  in.xrayMD5 = f.Texts("inputs.xray_md5");
+  in.rois = f.Texts("inputs.rois");
+  in.size = f.Text("inputs.size");
+  in.isocenterInCT = f.Text("inputs.iso_ct");
+  in.muWater = f.Number("inputs.mu_water");
+  in.entropyMask = f.Bool("inputs.entropy_mask");
+  in.removeTable = f.Bool("inputs.remove_table");
+  if (in.xrayMD5.size() != in.xrays.size())
+    f.Fail("inputs.xray_md5", "must hold one MD5 per X-ray");
+  return in;
+}
+
+/** result.json's `convergence.stages`, `prealignment_2d` and `schedule` into `r`. */
+void ReadConvergence(const Fields& f, RegistrationRecord& r)
+{
+  for (const Json::Value& stage : f.Array("convergence.stages"))
+  {
+    if (!stage.isObject() || !stage["name"].isString() || !stage["first_evaluation"].isInt() ||
+      !stage["seconds"].isNumeric())
+      f.Fail("convergence.stages", "must list {name, first_evaluation, seconds}");
+    RegistrationStage read{ stage["name"].asString(), stage["first_evaluation"].asInt(), stage["seconds"].asDouble() };
+    read.evaluations = stage["evaluations"].isInt() ? stage["evaluations"].asInt() : 0; // absent before the schedule
+    read.imageDivisor = stage["image_divisor"].isInt() ? stage["image_divisor"].asInt() : 0;
+    r.stages.push_back(read);
+  }
+  if (f.Has("prealignment_2d")) // absent in records written before the schedule
+  {
+    r.prealignIterations = static_cast<int>(f.Number("prealignment_2d.iterations"));
+    r.prealignDRRs = static_cast<long long>(f.Number("prealignment_2d.drrs"));
+  }
+  if (f.Has("schedule"))
+    for (const Json::Value& item : f.Array("schedule"))
+    {
+      ScheduledStage stage;
+      bool known = false;
+      for (StageKind kind : { StageKind::PreAlignment, StageKind::Masks, StageKind::Search, StageKind::Refinement,
+             StageKind::Polish, StageKind::Restarts, StageKind::Landscape, StageKind::Gate })
+        if (item.isObject() && item["kind"].isString() && item["kind"].asString() == StageKindName(kind))
+          stage.kind = kind, known = true;
+      if (!known || !item["name"].isString() || !item["image_divisor"].isInt())
+        f.Fail("schedule", "must list {kind (a stage kind), name, image_divisor, ...}");
+      stage.name = item["name"].asString();
+      stage.imageDivisor = item["image_divisor"].asInt();
+      stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
+      stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
+      stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;
+      const Json::Value& o = item["optimizer"];
+      if (o.isObject())
+      {
+        if (!o["method"].isString() || !o["step_mm"].isNumeric() || !o["step_deg"].isNumeric() || !o["tolerance_mm"].isNumeric() ||
+          !o["tolerance_deg"].isNumeric() || !o["max_evaluations"].isInt() || !o["restarts"].isInt())
+          f.Fail("schedule", "an optimizer must hold method, step_mm, step_deg, tolerance_mm, tolerance_deg, max_evaluations, restarts");
+        stage.optimizer.method = ParsePoseOptimizerMethod(o["method"].asString(), "schedule.optimizer.method");
+        stage.optimizer.initialStepMM = o["step_mm"].asDouble();
+        stage.optimizer.initialStepDegrees = o["step_deg"].asDouble();
+        stage.optimizer.toleranceMM = o["tolerance_mm"].asDouble();
+        stage.optimizer.toleranceDegrees = o["tolerance_deg"].asDouble();
+        stage.optimizer.maxEvaluations = o["max_evaluations"].asInt();
+        stage.optimizer.maxRestarts = o["restarts"].asInt();
+      }
+      r.schedule.stages.push_back(stage);
+    }
+}
+
+/** result.json's `volume_to_room` and `volume_center` into `r`. */
+void ReadPlacement(const Fields& f, RegistrationRecord& r)
+{
+  const Json::Value& rows = f.Array("volume_to_room");
+  Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+  bool shaped = rows.size() == 4;
+  for (Json::ArrayIndex row = 0; shaped && row < 4; ++row)
+  {
+    shaped = rows[row].isArray() && rows[row].size() == 4;
+    for (Json::ArrayIndex column = 0; shaped && column < 4; ++column)
+    {
+      shaped = rows[row][column].isNumeric();
+      if (shaped)
+        m(row, column) = rows[row][column].asDouble();
+    }
+  }
+  const Eigen::Matrix3d rotation = m.topLeftCorner<3, 3>();
+  if (!shaped || !(rotation.transpose() * rotation).isApprox(Eigen::Matrix3d::Identity(), 1e-6) ||
+    !m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
+    f.Fail("volume_to_room", "must be a rigid 4x4 matrix (4 rows of 4 numbers)");
+  Eigen::Isometry3d placed = Eigen::Isometry3d::Identity();
+  placed.matrix() = m;
+  r.volumeToRoom = placed;
+  const std::vector<double> center = f.Numbers("volume_center");
+  if (center.size() != 3)
+    f.Fail("volume_center", "must hold 3 numbers");
+  r.volumeCenter = Eigen::Vector3d(center[0], center[1], center[2]);
+}
 
 GateCode CodeNamed(const std::string& name, const Fields& fields)
 {
@@ -349,63 +571,8 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     failures.append(item);
   }
   if (r.inputs)
-  {
-    const RegistrationRecordInputs& in = *r.inputs;
-    Json::Value& inputs = root["inputs"];
-    inputs["ct"] = in.ct;
-    inputs["series"] = in.series;
-    inputs["voxel_size"] = in.voxelSize;
-    inputs["geometry"] = in.geometry;
-    inputs["xrays"] = List(in.xrays);
-    inputs["xray_md5"] = List(in.xrayMD5);
-    inputs["rois"] = List(in.rois);
-    inputs["size"] = in.size;
-    inputs["iso_ct"] = in.isocenterInCT;
-    inputs["mu_water"] = in.muWater;
-    inputs["entropy_mask"] = in.entropyMask;
-    inputs["remove_table"] = in.removeTable;
-  }
-  Json::Value& stages = root["convergence"]["stages"] = Json::Value(Json::arrayValue);
-  for (const RegistrationStage& stage : r.stages)
-  {
-    Json::Value item(Json::objectValue);
-    item["name"] = stage.name;
-    item["first_evaluation"] = stage.firstEvaluation;
-    item["evaluations"] = stage.evaluations;
-    item["image_divisor"] = stage.imageDivisor;
-    item["seconds"] = stage.seconds;
-    stages.append(item);
-  }
-  root["prealignment_2d"]["iterations"] = r.prealignIterations;
-  root["prealignment_2d"]["drrs"] = static_cast<Json::Int64>(r.prealignDRRs);
-  Json::Value& schedule = root["schedule"] = Json::Value(Json::arrayValue);
-  for (const ScheduledStage& stage : r.schedule.stages)
-  {
-    Json::Value item(Json::objectValue);
-    item["kind"] = StageKindName(stage.kind);
-    item["name"] = stage.name;
-    item["image_divisor"] = stage.imageDivisor;
-    if (stage.kind == StageKind::Search)
-    {
-      item["track"] = stage.track;
-      item["stops_at_first_track_end"] = stage.stopAtFirstEnd;
-    }
-    if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement || stage.kind == StageKind::Restarts)
-    {
-      const PoseOptimizerSettings& o = stage.optimizer;
-      Json::Value& optimizer = item["optimizer"];
-      optimizer["method"] = PoseOptimizerMethodName(o.method);
-      optimizer["step_mm"] = o.initialStepMM;
-      optimizer["step_deg"] = o.initialStepDegrees;
-      optimizer["tolerance_mm"] = o.toleranceMM;
-      optimizer["tolerance_deg"] = o.toleranceDegrees;
-      optimizer["max_evaluations"] = o.maxEvaluations;
-      optimizer["restarts"] = o.maxRestarts;
-    }
-    if (stage.rounds > 0)
-      item["rounds"] = stage.rounds;
-    schedule.append(item);
-  }
+    root["inputs"] = InputsValue(*r.inputs);
+  WriteConvergence(r, root);
   root["convergence"]["objective"] = List(r.objectiveTrace);
   Json::StreamWriterBuilder builder;
   builder["indentation"] = "  ";
@@ -449,32 +616,7 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   if (f.Has("xray_smoothing_px")) // absent in records written before the smoothing
     r.xraySmoothingPixels = f.PerViewNumbers("xray_smoothing_px", r.viewNames);
   if (f.Has("volume_to_room")) // absent in records written before it
-  {
-    const Json::Value& rows = f.Array("volume_to_room");
-    Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
-    bool shaped = rows.size() == 4;
-    for (Json::ArrayIndex row = 0; shaped && row < 4; ++row)
-    {
-      shaped = rows[row].isArray() && rows[row].size() == 4;
-      for (Json::ArrayIndex column = 0; shaped && column < 4; ++column)
-      {
-        shaped = rows[row][column].isNumeric();
-        if (shaped)
-          m(row, column) = rows[row][column].asDouble();
-      }
-    }
-    const Eigen::Matrix3d rotation = m.topLeftCorner<3, 3>();
-    if (!shaped || !(rotation.transpose() * rotation).isApprox(Eigen::Matrix3d::Identity(), 1e-6) ||
-      !m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)))
-      f.Fail("volume_to_room", "must be a rigid 4x4 matrix (4 rows of 4 numbers)");
-    Eigen::Isometry3d placed = Eigen::Isometry3d::Identity();
-    placed.matrix() = m;
-    r.volumeToRoom = placed;
-    const std::vector<double> center = f.Numbers("volume_center");
-    if (center.size() != 3)
-      f.Fail("volume_center", "must hold 3 numbers");
-    r.volumeCenter = Eigen::Vector3d(center[0], center[1], center[2]);
-  }
+    ReadPlacement(f, r);
   if (f.Has("edge_distance_mm")) // absent in records written before it
   {
     r.edgeDistanceMM = f.PerViewNumbers("edge_distance_mm", r.viewNames);
@@ -537,123 +679,11 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   {
     if (!r.ok)
       f.Fail("couch", "is given only for an ok result");
-    CouchMotion c;
-    const std::string motions = f.Text("couch.couch");
-    if (motions != "6dof" && motions != "4dof")
-      f.Fail("couch.couch", "must be 6dof or 4dof");
-    c.couch.motions = ParseCouchMotions(motions, "couch.couch");
-    if (f.At("couch.rotation_limit_deg").isNumeric())
-      c.couch.pitchRollLimitDegrees = f.Number("couch.rotation_limit_deg");
-    const auto point = [&f](const std::string& field)
-    {
-      const std::vector<double> p = f.Numbers(field);
-      if (p.size() != 3)
-        f.Fail(field, "must hold 3 numbers");
-      return Eigen::Vector3d(p[0], p[1], p[2]);
-    };
-    const auto angles = [&f](const std::string& field, Pose& pose)
-    {
-      pose.pitch = f.Number(field + ".pitch");
-      pose.roll = f.Number(field + ".roll");
-      pose.yaw = f.Number(field + ".yaw");
-    };
-    c.motion.translation = point("couch.translation_mm");
-    angles("couch.rotation_deg", c.motion);
-    c.rotationCenter = point("couch.rotation_center");
-    c.couch.rotationCenter = c.rotationCenter;
-    r.targetInCT = point("couch.target_ct");
-    c.target = point("couch.target_room");
-    angles("couch.uncorrected_rotation_deg", c.uncorrected);
-    c.uncorrected.translation = point("couch.uncorrected_translation_mm");
-    c.uncorrectedAt50MM = f.Number("couch.uncorrected_mm_at_50");
-    c.uncorrectedAt100MM = f.Number("couch.uncorrected_mm_at_100");
-    c.limitedBy = f.Texts("couch.limited_by");
-    const std::string action = f.Text("couch.action");
-    bool known = false;
-    for (CouchAction a : { CouchAction::NoneNeeded, CouchAction::Move, CouchAction::SetUpAgain })
-      if (CouchActionName(a) == action)
-      {
-        c.action = a;
-        known = true;
-      }
-    if (!known)
-      f.Fail("couch.action", "must be none_needed, move or set_up_again");
-    c.actionReason = f.Text("couch.action_reason");
-    const auto limit = [&f](const std::string& field)
-    { return f.At(field).isNumeric() ? f.Number(field) : std::numeric_limits<double>::infinity(); };
-    r.actionLevels.actionMM = f.Number("couch.action_levels.mm");
-    r.actionLevels.actionDegrees = f.Number("couch.action_levels.deg");
-    r.actionLevels.maxUncorrectedMM = limit("couch.action_levels.max_uncorrected_mm");
-    r.actionLevels.maxUncorrectedDegrees = limit("couch.action_levels.max_uncorrected_deg");
-    r.couch = c;
+    r.couch = CouchAt(f, r.targetInCT, r.actionLevels);
   }
   if (f.Has("inputs"))
-  {
-    RegistrationRecordInputs in;
-    in.ct = f.Text("inputs.ct");
-    in.series = f.Text("inputs.series");
-    if (root["inputs"].isMember("voxel_size")) // absent in records written before TIFF volumes
-      in.voxelSize = f.Text("inputs.voxel_size");
-    in.geometry = f.Text("inputs.geometry");
-    in.xrays = f.Texts("inputs.xrays");
-    in.xrayMD5 = f.Texts("inputs.xray_md5");
-    in.rois = f.Texts("inputs.rois");
-    in.size = f.Text("inputs.size");
-    in.isocenterInCT = f.Text("inputs.iso_ct");
-    in.muWater = f.Number("inputs.mu_water");
-    in.entropyMask = f.Bool("inputs.entropy_mask");
-    in.removeTable = f.Bool("inputs.remove_table");
-    if (in.xrayMD5.size() != in.xrays.size())
-      f.Fail("inputs.xray_md5", "must hold one MD5 per X-ray");
-    r.inputs = in;
-  }
-  for (const Json::Value& stage : f.Array("convergence.stages"))
-  {
-    if (!stage.isObject() || !stage["name"].isString() || !stage["first_evaluation"].isInt() ||
-      !stage["seconds"].isNumeric())
-      f.Fail("convergence.stages", "must list {name, first_evaluation, seconds}");
-    RegistrationStage read{ stage["name"].asString(), stage["first_evaluation"].asInt(), stage["seconds"].asDouble() };
-    read.evaluations = stage["evaluations"].isInt() ? stage["evaluations"].asInt() : 0; // absent before the schedule
-    read.imageDivisor = stage["image_divisor"].isInt() ? stage["image_divisor"].asInt() : 0;
-    r.stages.push_back(read);
-  }
-  if (f.Has("prealignment_2d")) // absent in records written before the schedule
-  {
-    r.prealignIterations = static_cast<int>(f.Number("prealignment_2d.iterations"));
-    r.prealignDRRs = static_cast<long long>(f.Number("prealignment_2d.drrs"));
-  }
-  if (f.Has("schedule"))
-    for (const Json::Value& item : f.Array("schedule"))
-    {
-      ScheduledStage stage;
-      bool known = false;
-      for (StageKind kind : { StageKind::PreAlignment, StageKind::Masks, StageKind::Search, StageKind::Refinement,
-             StageKind::Polish, StageKind::Restarts, StageKind::Landscape, StageKind::Gate })
-        if (item.isObject() && item["kind"].isString() && item["kind"].asString() == StageKindName(kind))
-          stage.kind = kind, known = true;
-      if (!known || !item["name"].isString() || !item["image_divisor"].isInt())
-        f.Fail("schedule", "must list {kind (a stage kind), name, image_divisor, ...}");
-      stage.name = item["name"].asString();
-      stage.imageDivisor = item["image_divisor"].asInt();
-      stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
-      stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
-      stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;
-      const Json::Value& o = item["optimizer"];
-      if (o.isObject())
-      {
-        if (!o["method"].isString() || !o["step_mm"].isNumeric() || !o["step_deg"].isNumeric() || !o["tolerance_mm"].isNumeric() ||
-          !o["tolerance_deg"].isNumeric() || !o["max_evaluations"].isInt() || !o["restarts"].isInt())
-          f.Fail("schedule", "an optimizer must hold method, step_mm, step_deg, tolerance_mm, tolerance_deg, max_evaluations, restarts");
-        stage.optimizer.method = ParsePoseOptimizerMethod(o["method"].asString(), "schedule.optimizer.method");
-        stage.optimizer.initialStepMM = o["step_mm"].asDouble();
-        stage.optimizer.initialStepDegrees = o["step_deg"].asDouble();
-        stage.optimizer.toleranceMM = o["tolerance_mm"].asDouble();
-        stage.optimizer.toleranceDegrees = o["tolerance_deg"].asDouble();
-        stage.optimizer.maxEvaluations = o["max_evaluations"].asInt();
-        stage.optimizer.maxRestarts = o["restarts"].asInt();
-      }
-      r.schedule.stages.push_back(stage);
-    }
+    r.inputs = InputsAt(f, root["inputs"]);
+  ReadConvergence(f, r);
   r.objectiveTrace = f.Numbers("convergence.objective");
   return r;
 }

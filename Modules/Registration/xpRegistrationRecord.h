@@ -23,7 +23,7 @@
 namespace xp
 {
 
-/** How the record's poses are to be read (GEOMETRY.md). */
+/** How the record's poses are to be read (Coordinates.md). */
 inline constexpr const char* CorrectionConvention =
   "IEC 61217 fixed; p' = R(p - iso) + iso + t; R = Rz(yaw) Ry(roll) Rx(pitch)";
 

@@ -1,6 +1,6 @@
 /**
  * @file xpStereoRegistration.h
- * @brief The whole method of METHOD.md on prepared inputs: pre-alignment, entropy masks,
+ * @brief The whole method of Method.md on prepared inputs: pre-alignment, entropy masks,
  *        6-DOF masked mutual-information alignment (coarse to fine) and the quality gate.
  */
 #ifndef xpStereoRegistration_h
@@ -26,7 +26,7 @@ namespace xp
 
 struct StereoRegistrationSettings
 {
-  bool entropyMask = true;       ///< exclude low-information regions (METHOD.md step 3)
+  bool entropyMask = true;       ///< exclude low-information regions (Method.md, stage 2)
   bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
   /** Every X-ray's 3x3 median is what the registration sees (xpImageLevels.h, Median3x3):
    *  heavy-tailed noise decided the masks and the pose of processed pelvis X-rays (Algorithms.md). */

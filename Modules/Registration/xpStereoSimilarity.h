@@ -1,6 +1,6 @@
 /**
  * @file xpStereoSimilarity.h
- * @brief The 6-DOF objective of METHOD.md step 4: MI(X-ray A, DRR A(T))^2 + MI(X-ray B, DRR B(T))^2,
+ * @brief The 6-DOF objective of Method.md, stage 3: MI(X-ray A, DRR A(T))^2 + MI(X-ray B, DRR B(T))^2,
  *        rendering only the rays of valid pixels, into buffers kept between evaluations.
  *
  * Equalised levels (the default): MI bins each image by its own ranks over the valid pixels: the

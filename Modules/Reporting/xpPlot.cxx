@@ -56,6 +56,39 @@ void Plot::SetYRange(double minimum, double maximum)
   this->YMax = maximum;
 }
 
+namespace
+{
+
+/** The y label, turned a quarter to read upwards along the axis left of `area`. */
+void DrawYLabel(cv::Mat& canvas, const std::string& text, const cv::Rect& area, const cv::Scalar& ink)
+{
+  const int w = canvas::TextWidth(text, 0.9) + 8;
+  cv::Mat label(24, w, CV_8UC3, cv::Scalar(255, 255, 255));
+  canvas::Text(label, text, cv::Point(4, 17), 0.9, ink);
+  cv::Mat turned;
+  cv::rotate(label, turned, cv::ROTATE_90_COUNTERCLOCKWISE);
+  const int y = std::max(0, area.y + area.height / 2 - turned.rows / 2);
+  const cv::Rect target(2, y, turned.cols, std::min(turned.rows, canvas.rows - y));
+  turned(cv::Rect(0, 0, target.width, target.height)).copyTo(canvas(target));
+}
+
+/** The legend in the top margin, right-aligned at `right`, so that it never hides data. */
+void DrawLegend(cv::Mat& canvas, const std::vector<PlotSeries>& series, int right, int top, const cv::Scalar& ink)
+{
+  int x = right;
+  for (auto s = series.rbegin(); s != series.rend(); ++s)
+  {
+    if (s->name.empty())
+      continue;
+    x -= canvas::TextWidth(s->name, 0.8) + 34;
+    const cv::Scalar colour(s->rgb[2], s->rgb[1], s->rgb[0]);
+    cv::circle(canvas, cv::Point(x + 6, top - 14), 5, colour, cv::FILLED, cv::LINE_AA);
+    canvas::Text(canvas, s->name, cv::Point(x + 16, top - 9), 0.8, ink);
+  }
+}
+
+} // namespace
+
 vtkSmartPointer<vtkImageData> Plot::Render(int width, int height) const
 {
   cv::Mat canvas(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -132,17 +165,7 @@ vtkSmartPointer<vtkImageData> Plot::Render(int width, int height) const
   canvas::Text(canvas, this->Title, cv::Point(left, 26), 1.05, ink, 2);
   canvas::Text(canvas, this->XLabel, cv::Point(area.x + area.width / 2 - canvas::TextWidth(this->XLabel, 0.9) / 2, height - 12),
     0.9, ink);
-  {
-    // The y label, turned a quarter to read upwards along the axis.
-    const int w = canvas::TextWidth(this->YLabel, 0.9) + 8;
-    cv::Mat label(24, w, CV_8UC3, cv::Scalar(255, 255, 255));
-    canvas::Text(label, this->YLabel, cv::Point(4, 17), 0.9, ink);
-    cv::Mat turned;
-    cv::rotate(label, turned, cv::ROTATE_90_COUNTERCLOCKWISE);
-    const int y = std::max(0, area.y + area.height / 2 - turned.rows / 2);
-    const cv::Rect target(2, y, turned.cols, std::min(turned.rows, height - y));
-    turned(cv::Rect(0, 0, target.width, target.height)).copyTo(canvas(target));
-  }
+  DrawYLabel(canvas, this->YLabel, area, ink);
 
   // Markers, then the data clipped to the axes.
   for (const PlotMarker& m : this->Markers)
@@ -179,17 +202,7 @@ vtkSmartPointer<vtkImageData> Plot::Render(int width, int height) const
       for (const cv::Point& p : points)
         cv::circle(inside, p, 4, colour, cv::FILLED, cv::LINE_AA);
   }
-  // Legend in the top margin, right-aligned, so that it never hides data.
-  int x = width - right;
-  for (auto s = this->Series.rbegin(); s != this->Series.rend(); ++s)
-  {
-    if (s->name.empty())
-      continue;
-    x -= canvas::TextWidth(s->name, 0.8) + 34;
-    const cv::Scalar colour(s->rgb[2], s->rgb[1], s->rgb[0]);
-    cv::circle(canvas, cv::Point(x + 6, top - 14), 5, colour, cv::FILLED, cv::LINE_AA);
-    canvas::Text(canvas, s->name, cv::Point(x + 16, top - 9), 0.8, ink);
-  }
+  DrawLegend(canvas, this->Series, width - right, top, ink);
   return canvas::ToVTK(canvas);
 }
 

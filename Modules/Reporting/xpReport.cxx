@@ -104,6 +104,66 @@ void Save(const cv::Mat& image, StagedOutputDirectory& output, const std::string
   WritePNG(canvas::ToVTK(image), output.Path(file));
 }
 
+/** The report's correction table (misalignment, 6-DOF correction, couch motion) and couch panel. */
+std::string CorrectionSection(const ReportContent& content)
+{
+  std::ostringstream html;
+  html << "<h2>Correction</h2>\n<table><tr><th></th><th>lateral X (mm)</th><th>longitudinal Y (mm)</th><th>vertical Z (mm)</th>"
+       << "<th>pitch (deg)</th><th>roll (deg)</th><th>yaw (deg)</th></tr>\n"
+       << PoseRow("misalignment of the patient", content.misalignment) << PoseRow("6-DOF correction", content.correction);
+  if (content.couch)
+    html << PoseRow("couch motion (about its rotation centre)", content.couch->motion)
+         << PoseRow("left uncorrected (about the isocentre)", content.couch->uncorrected);
+  html << "</table>\n<p>Convention: " << Html(content.convention) << ". The 6-DOF correction is the inverse of the "
+       << "misalignment.</p>\n";
+  if (content.couch)
+  {
+    const CouchMotion& couch = *content.couch;
+    std::string limits;
+    for (const std::string& limit : couch.limitedBy)
+      limits += (limits.empty() ? "" : ", ") + limit;
+    html << "<h2>Couch</h2>\n<table><tr><th>couch</th><td>" << Html(couch.couch.Describe()) << "</td></tr>"
+         << "<tr><th>action</th><td><b>" << Html(CouchActionName(couch.action)) << "</b>: " << Html(couch.actionReason)
+         << "</td></tr><tr><th>target (room mm)</th><td>" << Fixed(couch.target[0], 1) << ", " << Fixed(couch.target[1], 1) << ", "
+         << Fixed(couch.target[2], 1) << " (put back exactly)</td></tr><tr><th>uncorrected rotation</th><td>"
+         << Fixed(couch.uncorrected.RotationAngle(), 2) << " deg: " << Fixed(couch.uncorrectedAt50MM, 2) << " mm at 50 mm and "
+         << Fixed(couch.uncorrectedAt100MM, 2) << " mm at 100 mm from the target</td></tr><tr><th>limited by</th><td>"
+         << (limits.empty() ? "none" : Html(limits)) << "</td></tr></table>\n";
+  }
+  return html.str();
+}
+
+/** summary.png's header: the status, the corrections, the couch motion and the run's figures. */
+cv::Mat SummaryHeader(const ReportContent& content, int width)
+{
+  const std::string status = content.ok ? "OK" : "FAILED";
+  const int couchLine = content.couch ? 26 : 0;
+  cv::Mat header(150 + couchLine, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::rectangle(header, cv::Rect(0, 0, width, 44), content.ok ? cv::Scalar(42, 125, 42) : cv::Scalar(34, 34, 178), cv::FILLED);
+  canvas::Text(header, "xpose registration: " + status + (content.ok ? "" : "  (do not apply)"), cv::Point(12, 32), 1.5,
+    cv::Scalar(255, 255, 255), 2);
+  canvas::Text(header, "6-DOF correction:  " + PoseLine(content.correction), cv::Point(12, 72), 1.1, cv::Scalar(20, 20, 20), 2);
+  if (content.couch)
+    canvas::Text(header, "couch " + CouchMotionsName(content.couch->couch.motions) + " (" + CouchActionName(content.couch->action) +
+        "): " + PoseLine(content.couch->motion) + ", " + Fixed(content.couch->uncorrected.RotationAngle(), 2) + " deg left",
+      cv::Point(12, 98), 0.95, cv::Scalar(20, 20, 20), 2);
+  canvas::Text(header, "misalignment:      " + PoseLine(content.misalignment), cv::Point(12, 98 + couchLine), 0.95,
+    cv::Scalar(60, 60, 60));
+  std::string facts;
+  for (const ReportView& v : content.views)
+    facts += v.name + ": MI " + Fixed(v.similarity, 3) + ", valid " + Fixed(100 * v.validFraction, 0) + " %" +
+      (v.edgeDistanceMM >= 0.0 ? ", edges " + Fixed(v.edgeDistanceMM, 2) + " mm (moved " + Fixed(v.edgeDistanceMovedMM, 2) + ")" : "") + "   ";
+  double total = 0.0;
+  for (const auto& stage : content.seconds)
+    total = stage.first == "total" ? stage.second : total;
+  facts += "DRRs " + std::to_string(content.drrCount) + ", evaluations " + std::to_string(content.evaluations) + ", " +
+    Fixed(total, 1) + " s";
+  canvas::Text(header, facts, cv::Point(12, 124 + couchLine), 0.85, cv::Scalar(60, 60, 60));
+  if (!content.ok && !content.reasons.empty())
+    canvas::Text(header, "reason: " + content.reasons.front(), cv::Point(12, 146 + couchLine), 0.8, cv::Scalar(34, 34, 178));
+  return header;
+}
+
 } // namespace
 
 void WriteReport(const ReportContent& content, const std::string& directory)
@@ -145,28 +205,7 @@ void WriteReport(const ReportContent& content, const std::string& directory)
       html << "<li>" << Html(reason) << "</li>\n";
     html << "</ul>\n";
   }
-  html << "<h2>Correction</h2>\n<table><tr><th></th><th>lateral X (mm)</th><th>longitudinal Y (mm)</th><th>vertical Z (mm)</th>"
-       << "<th>pitch (deg)</th><th>roll (deg)</th><th>yaw (deg)</th></tr>\n"
-       << PoseRow("misalignment of the patient", content.misalignment) << PoseRow("6-DOF correction", content.correction);
-  if (content.couch)
-    html << PoseRow("couch motion (about its rotation centre)", content.couch->motion)
-         << PoseRow("left uncorrected (about the isocentre)", content.couch->uncorrected);
-  html << "</table>\n<p>Convention: " << Html(content.convention) << ". The 6-DOF correction is the inverse of the "
-       << "misalignment.</p>\n";
-  if (content.couch)
-  {
-    const CouchMotion& couch = *content.couch;
-    std::string limits;
-    for (const std::string& limit : couch.limitedBy)
-      limits += (limits.empty() ? "" : ", ") + limit;
-    html << "<h2>Couch</h2>\n<table><tr><th>couch</th><td>" << Html(couch.couch.Describe()) << "</td></tr>"
-         << "<tr><th>action</th><td><b>" << Html(CouchActionName(couch.action)) << "</b>: " << Html(couch.actionReason)
-         << "</td></tr><tr><th>target (room mm)</th><td>" << Fixed(couch.target[0], 1) << ", " << Fixed(couch.target[1], 1) << ", "
-         << Fixed(couch.target[2], 1) << " (put back exactly)</td></tr><tr><th>uncorrected rotation</th><td>"
-         << Fixed(couch.uncorrected.RotationAngle(), 2) << " deg: " << Fixed(couch.uncorrectedAt50MM, 2) << " mm at 50 mm and "
-         << Fixed(couch.uncorrectedAt100MM, 2) << " mm at 100 mm from the target</td></tr><tr><th>limited by</th><td>"
-         << (limits.empty() ? "none" : Html(limits)) << "</td></tr></table>\n";
-  }
+  html << CorrectionSection(content);
   html << "<h2>Similarity and effort</h2>\n<table><tr><th>view</th><th>MI (nats)</th><th>explained MI / H(X-ray)</th>"
        << "<th>mask valid fraction</th><th>DRR edges to the X-ray's (mm at the isocentre)</th>"
        << "<th>the same, DRR moved 3 mm</th></tr>\n";
@@ -212,30 +251,7 @@ void WriteReport(const ReportContent& content, const std::string& directory)
 
   // summary.png: the essentials on one image.
   const int width = 1560;
-  const int couchLine = content.couch ? 26 : 0;
-  cv::Mat header(150 + couchLine, width, CV_8UC3, cv::Scalar(255, 255, 255));
-  cv::rectangle(header, cv::Rect(0, 0, width, 44), content.ok ? cv::Scalar(42, 125, 42) : cv::Scalar(34, 34, 178), cv::FILLED);
-  canvas::Text(header, "xpose registration: " + status + (content.ok ? "" : "  (do not apply)"), cv::Point(12, 32), 1.5,
-    cv::Scalar(255, 255, 255), 2);
-  canvas::Text(header, "6-DOF correction:  " + PoseLine(content.correction), cv::Point(12, 72), 1.1, cv::Scalar(20, 20, 20), 2);
-  if (content.couch)
-    canvas::Text(header, "couch " + CouchMotionsName(content.couch->couch.motions) + " (" + CouchActionName(content.couch->action) +
-        "): " + PoseLine(content.couch->motion) + ", " + Fixed(content.couch->uncorrected.RotationAngle(), 2) + " deg left",
-      cv::Point(12, 98), 0.95, cv::Scalar(20, 20, 20), 2);
-  canvas::Text(header, "misalignment:      " + PoseLine(content.misalignment), cv::Point(12, 98 + couchLine), 0.95,
-    cv::Scalar(60, 60, 60));
-  std::string facts;
-  for (const ReportView& v : content.views)
-    facts += v.name + ": MI " + Fixed(v.similarity, 3) + ", valid " + Fixed(100 * v.validFraction, 0) + " %" +
-      (v.edgeDistanceMM >= 0.0 ? ", edges " + Fixed(v.edgeDistanceMM, 2) + " mm (moved " + Fixed(v.edgeDistanceMovedMM, 2) + ")" : "") + "   ";
-  double total = 0.0;
-  for (const auto& stage : content.seconds)
-    total = stage.first == "total" ? stage.second : total;
-  facts += "DRRs " + std::to_string(content.drrCount) + ", evaluations " + std::to_string(content.evaluations) + ", " +
-    Fixed(total, 1) + " s";
-  canvas::Text(header, facts, cv::Point(12, 124 + couchLine), 0.85, cv::Scalar(60, 60, 60));
-  if (!content.ok && !content.reasons.empty())
-    canvas::Text(header, "reason: " + content.reasons.front(), cv::Point(12, 146 + couchLine), 0.8, cv::Scalar(34, 34, 178));
+  const cv::Mat header = SummaryHeader(content, width);
   std::vector<cv::Mat> parts{ header };
   for (const cv::Mat& row : summaryRows)
     parts.push_back(row);

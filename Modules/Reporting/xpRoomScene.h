@@ -25,7 +25,7 @@ public:
 
   /**
    * The bone surface of a CT (HU, any scalar type) at `boneHU`, from a copy shrunk to at most
-   * about 128 voxels a side, placed in the Room by `plannedCTToRoom` (GEOMETRY.md).
+   * about 128 voxels a side, placed in the Room by `plannedCTToRoom` (Coordinates.md).
    */
   void SetCT(vtkImageData* ct, const Eigen::Isometry3d& plannedCTToRoom, double boneHU = 200.0);
   /** The pose found: the bone is drawn at the planned pose (grey, translucent) and moved by this. */

@@ -1,4 +1,4 @@
-// Fuzz target: the stereo geometry JSON (GEOMETRY.md).
+// Fuzz target: the stereo geometry JSON (Coordinates.md).
 #include "xpFuzzInput.h"
 #include "xpStereoGeometry.h"
 

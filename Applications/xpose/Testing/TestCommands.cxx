@@ -414,7 +414,7 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
     EXPECT_TRUE(Exists(std::string("cmd-reg/") + file)) << file;
 
   // The DICOM Spatial Registration moves CT points where result.json's misalignment moves the
-  // patient in the room (GEOMETRY.md, written out here), within 0.01 mm.
+  // patient in the room (Coordinates.md, written out here), within 0.01 mm.
   const xp::CTSeriesInfo ct = xp::ScanCTSeries(PhantomCT());
   const Eigen::Isometry3d inCT = xp::ReadSpatialRegistrationMatrix("cmd-reg-dicom/reg.dcm", ct.frameOfReferenceUID);
   const Eigen::Isometry3d planned = xp::PlannedCTToRoom(xp::PatientPosition::HFS, centre, Eigen::Vector3d::Zero());

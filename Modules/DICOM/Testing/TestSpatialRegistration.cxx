@@ -1,5 +1,5 @@
 // The DICOM Spatial Registration (REG) of a result: valid by dciodvfy, linked to the CT, and its
-// matrix moves CT points as the misalignment (GEOMETRY.md) moves the patient in the room.
+// matrix moves CT points as the misalignment (Coordinates.md) moves the patient in the room.
 #include "xpDICOMSeries.h"
 #include "xpError.h"
 #include "xpDICOMSeriesWriter.h"
@@ -53,7 +53,7 @@ const gdcm::DataSet& Item(const gdcm::DataSet& ds, uint16_t group, uint16_t elem
   return sequence->GetItem(index).GetNestedDataSet();
 }
 
-/** Room point of planned CT point p moved by the misalignment, written out from GEOMETRY.md. */
+/** Room point of planned CT point p moved by the misalignment, written out from Coordinates.md. */
 Eigen::Vector3d MovedInRoom(const Eigen::Isometry3d& planned, const xp::Pose& m, const Eigen::Vector3d& iso,
   const Eigen::Vector3d& p)
 {

@@ -1,4 +1,4 @@
-// vtkXPDRRFilter in the conventions of GEOMETRY.md: a dense marker in a CT lands on the pixel
+// vtkXPDRRFilter in the conventions of Coordinates.md: a dense marker in a CT lands on the pixel
 // that the geometry predicts, and a patient misalignment moves it the way the convention says.
 #include "vtkXPDRRFilter.h"
 

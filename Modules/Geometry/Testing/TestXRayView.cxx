@@ -51,7 +51,7 @@ TEST(XRayView, PixelRayPassesThroughProjectedPoint)
   // The reference directions are given to 6 digits, hence the micrometre tolerance.
   EXPECT_NEAR((toPoint - toPoint.dot(ray.direction) * ray.direction).norm(), 0.0, 1e-5);
   EXPECT_NEAR(ray.direction.norm(), 1.0, 1e-12);
-  // The pixel centre formula of GEOMETRY.md, corner pixel (0, 0).
+  // The pixel centre formula of Coordinates.md, corner pixel (0, 0).
   const Eigen::Vector3d corner = a.detectorCenter - 511.5 * 0.390625 * a.rowDirection - 383.5 * 0.390625 * a.columnDirection;
   EXPECT_NEAR((a.PixelCenter(0, 0) - corner).norm(), 0.0, 1e-9);
 }

@@ -1,5 +1,5 @@
 // The 6-DOF objective and optimiser recover known misalignments of the head phantom from
-// simulated stereo X-rays, with the signs of GEOMETRY.md.
+// simulated stereo X-rays, with the signs of Coordinates.md.
 #include "xpCTCoverage.h"
 #include "xpEntropyMask.h"
 #include "xpError.h"

@@ -3,7 +3,7 @@
 The filters are VTK algorithms: connect them to VTK's own readers, writers and numpy
 (vtkmodules.util.numpy_support). The value types the filters need have a Python face on the
 filters themselves: a geometry read from its JSON file, a pose as six numbers (tx, ty, tz in mm;
-pitch, roll, yaw in degrees; GEOMETRY.md), and the registration's result as the JSON record that
+pitch, roll, yaw in degrees; Coordinates.md), and the registration's result as the JSON record that
 `xpose register` writes to result.json.
 
 vtkXPRegistrationSession runs what `xpose register` runs, from the same files: the same inputs
