@@ -57,13 +57,11 @@ Json::Value PointValue(const Eigen::Vector3d& point)
 /** result.json's `couch`: the couch motion of an ok result in the terms of `correction`. */
 Json::Value CouchValue(const CouchMotion& c, const ActionLevels& levels, const Eigen::Vector3d& targetInCT)
 {
-  Json::Value value(Json::objectValue);
+  Json::Value value = PoseValue(c.motion); // translation_mm and rotation_deg, as every pose of the record
   value["couch"] = CouchMotionsName(c.couch.motions);
   value["motions"] = List(CouchMotionList(c.couch.motions));
   value["rotation_limit_deg"] = std::isfinite(c.couch.pitchRollLimitDegrees) ? Json::Value(c.couch.pitchRollLimitDegrees)
                                                                                : Json::Value(Json::nullValue);
-  value["translation_mm"] = PointValue(c.motion.translation);
-  value["rotation_deg"] = PoseValue(c.motion)["rotation_deg"];
   value["rotation_center"] = PointValue(c.rotationCenter);
   value["target_ct"] = PointValue(targetInCT);
   value["target_room"] = PointValue(c.target);
@@ -269,8 +267,7 @@ CouchMotion CouchAt(const Fields& f, Eigen::Vector3d& targetInCT, ActionLevels& 
     pose.roll = f.Number(field + ".roll");
     pose.yaw = f.Number(field + ".yaw");
   };
-  c.motion.translation = point("couch.translation_mm");
-  angles("couch.rotation_deg", c.motion);
+  c.motion = f.PoseAt("couch"); // translation_mm and rotation_deg, as every pose of the record
   c.rotationCenter = point("couch.rotation_center");
   c.couch.rotationCenter = c.rotationCenter;
   targetInCT = point("couch.target_ct");
