@@ -123,10 +123,9 @@ void WriteConvergence(const RegistrationRecord& r, Json::Value& root)
     item["name"] = stage.name;
     item["image_divisor"] = stage.imageDivisor;
     if (stage.kind == StageKind::Search)
-    {
       item["track"] = stage.track;
+    if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement)
       item["stops_at_first_track_end"] = stage.stopAtFirstEnd;
-    }
     if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement || stage.kind == StageKind::Restarts)
     {
       const PoseOptimizerSettings& o = stage.optimizer;

@@ -125,6 +125,9 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
 
   ScheduledStage refinement = Stage(StageKind::Refinement, "fine", 1, 0.7, 0.8);
   refinement.optimizer = RefinementOptimizer(settings);
+  // Where both searches' ends are refined, the second refinement only asks whether its end
+  // climbs to another optimum: reaching the first one's answers it.
+  refinement.stopAtFirstEnd = true;
   if (economy)
   {
     // Fewer evaluations: both searches travel on quarter-size images (a fifth of a half-size
@@ -194,6 +197,8 @@ std::string DescribeSchedule(const RegistrationSchedule& schedule)
     }
     if (stage.kind == StageKind::Search)
       text += ", track " + std::to_string(stage.track) + (stage.stopAtFirstEnd ? ", stops at the first track's end" : "");
+    if (stage.kind == StageKind::Refinement && stage.stopAtFirstEnd)
+      text += ", the second end's stops at the first's";
     if (stage.rounds > 0)
       text += ", " + std::to_string(stage.rounds) + (stage.kind == StageKind::PreAlignment ? " iterations at most" : " rounds");
     text += "\n";

@@ -1093,7 +1093,16 @@ private:
       this->Trace.Begin(name, stage.imageDivisor);
       if (e > 0)
         this->Progress.Begin(name, stage.progressTo, stage.progressTo + 0.5 * (stage.progressTo - stage.progressFrom));
-      refined.ends.push_back(MaximizePose(this->Traced(*this->Fine), ends[e], stage.optimizer));
+      // The second end's refinement stops at the first pose that agrees with the first end's,
+      // about as high: from there it would only polish the same optimum again.
+      PoseOptimizerSettings optimizer = stage.optimizer;
+      if (e > 0 && stage.stopAtFirstEnd)
+      {
+        const PoseOptimizerResult first = refined.ends.front();
+        optimizer.stopWhen = [first, &settings](const Pose& pose, double value)
+        { return Agree(pose, first.pose, settings) && value >= settings.sameOptimumObjectiveRatio * first.value; };
+      }
+      refined.ends.push_back(MaximizePose(this->Traced(*this->Fine), ends[e], optimizer));
       this->Result.evaluations += refined.ends.back().evaluations;
     }
     this->Trace.End();

@@ -676,6 +676,8 @@ TEST(RegistrationSchedule, ListsTheMethodsStagesInOrder)
   EXPECT_TRUE(body.stages[3].stopAtFirstEnd) << "the robustness search stops on the first one's optimum";
   EXPECT_EQ(body.stages[2].imageDivisor, 2);
   EXPECT_EQ(body.stages[4].imageDivisor, 1) << "the refinement at the registration's size";
+  EXPECT_TRUE(body.stages[4].stopAtFirstEnd) << "the second end's refinement stops on the first one's optimum";
+  EXPECT_NE(xp::DescribeSchedule(body).find("the second end's stops at the first's"), std::string::npos);
   EXPECT_LT(body.stages[4].optimizer.toleranceMM, body.stages[2].optimizer.toleranceMM);
   for (size_t s = 1; s < body.stages.size(); ++s)
     EXPECT_GE(body.stages[s].progressFrom, body.stages[s - 1].progressTo - 1e-12) << body.stages[s].name;
