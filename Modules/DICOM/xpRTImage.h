@@ -58,13 +58,20 @@ VTKXPDICOM_EXPORT XRayView ReadRTImageView(const std::string& path, const Eigen:
 VTKXPDICOM_EXPORT std::string WriteSecondaryCapture(
   const CTSeriesInfo& ct, const std::string& png, const std::string& description, const std::string& path);
 
+/** Which of an X-ray file's geometry tags a comparison reads. */
+enum class XRayTagSubset
+{
+  All,         ///< every tag that places the imager
+  PixelSpacing ///< the pixels' spacing alone: what tells a binned read-out from another panel
+};
+
 /**
  * Where the geometry tags of the RT Image at `path` disagree with `view` (a geometry file's
  * imager) beyond 0.5 mm or 0.1 degree: one line per tag, naming it and both values. A file that
  * is not an RT Image, and tags that are absent, give nothing to compare.
  */
-VTKXPDICOM_EXPORT std::vector<std::string> RTImageDisagreements(
-  const std::string& path, const XRayView& view, const Eigen::Vector3d& roomIsocenter);
+VTKXPDICOM_EXPORT std::vector<std::string> RTImageDisagreements(const std::string& path, const XRayView& view,
+  const Eigen::Vector3d& roomIsocenter, XRayTagSubset subset = XRayTagSubset::All);
 
 } // namespace xp
 

@@ -119,8 +119,8 @@ XRayView ReadXRayViewFromTags(const std::string& path, const Eigen::Vector3d& ro
   throw InputError(path, "SOP Class UID (0008,0016) = '" + sopClass + "': the geometry is read from RT Image, DX, CR or XA files");
 }
 
-std::vector<std::string> XRayTagDisagreements(
-  const std::string& path, const XRayView& view, const Eigen::Vector3d& roomIsocenter, const std::string& patientPosition)
+std::vector<std::string> XRayTagDisagreements(const std::string& path, const XRayView& view, const Eigen::Vector3d& roomIsocenter,
+  const std::string& patientPosition, XRayTagSubset subset)
 {
   gdcm::Reader reader;
   if (!ReadHeader(path, reader))
@@ -128,7 +128,7 @@ std::vector<std::string> XRayTagDisagreements(
   const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
   const std::string sopClass = Value(ds, gdcm::Tag(0x0008, 0x0016));
   if (sopClass == RTImageStorage)
-    return RTImageDisagreements(path, view, roomIsocenter);
+    return RTImageDisagreements(path, view, roomIsocenter, subset);
   if (!IsProjectionRadiograph(sopClass))
     return {};
   CArmGeometry expected;
@@ -140,15 +140,19 @@ std::vector<std::string> XRayTagDisagreements(
   }
   catch (const InputError& e)
   {
+    if (subset == XRayTagSubset::PixelSpacing)
+      return {}; // the spacing alone is compared only where the file's kind can describe the imager
     return { std::string("cannot be compared: ") + e.what() };
   }
   dicom::TagComparison tags(ds, path, view.name);
+  tags.Compare(0x0018, 0x1164, "Imager Pixel Spacing", { expected.imagerPixelSpacing[0], expected.imagerPixelSpacing[1] }, 1e-3,
+    "mm", false);
+  if (subset == XRayTagSubset::PixelSpacing)
+    return tags.Differences();
   tags.Compare(0x0018, 0x1510, "Positioner Primary Angle", { expected.primaryAngle }, 0.1, "deg", true);
   tags.Compare(0x0018, 0x1511, "Positioner Secondary Angle", { expected.secondaryAngle }, 0.1, "deg", false);
   tags.Compare(0x0018, 0x1110, "Distance Source to Detector", { expected.sourceToDetector }, 0.5, "mm", false);
   tags.Compare(0x0018, 0x1111, "Distance Source to Patient", { expected.sourceToPatient }, 0.5, "mm", false);
-  tags.Compare(0x0018, 0x1164, "Imager Pixel Spacing", { expected.imagerPixelSpacing[0], expected.imagerPixelSpacing[1] }, 1e-3,
-    "mm", false);
   // The orientation letters: compared through the row and column directions they pick.
   CArmGeometry file;
   try

@@ -8,6 +8,7 @@
 #define xpXRayGeometryTags_h
 
 #include "vtkXPDICOMModule.h"
+#include "xpRTImage.h"
 #include "xpXRayView.h"
 
 #include <Eigen/Core>
@@ -39,10 +40,11 @@ VTKXPDICOM_EXPORT XRayView ReadXRayViewFromTags(
  * Where the geometry tags of the X-ray DICOM file at `path` (RT Image, DX, CR or XA) disagree
  * with `view` (a geometry file's imager) beyond 0.5 mm or 0.1 degree: one line per tag, naming
  * it and both values. Files of other kinds (PNG, other classes) and absent tags give nothing to
- * compare; an imager the file's kind cannot describe gives one line that says so.
+ * compare; an imager the file's kind cannot describe gives one line that says so. `subset`
+ * PixelSpacing compares the pixels' spacing alone.
  */
 VTKXPDICOM_EXPORT std::vector<std::string> XRayTagDisagreements(const std::string& path, const XRayView& view,
-  const Eigen::Vector3d& roomIsocenter, const std::string& patientPosition = "");
+  const Eigen::Vector3d& roomIsocenter, const std::string& patientPosition = "", XRayTagSubset subset = XRayTagSubset::All);
 
 } // namespace xp
 

@@ -172,10 +172,9 @@ XRayView PanelOfXRay(const XRayView& panel, vtkImageData* xray, const std::strin
         " of the geometry has " + std::to_string(panel.Columns()) + "x" + std::to_string(panel.Rows()) +
         ": an X-ray must have its panel's size or divide it by a whole factor per axis (read out binned)");
   // A DICOM X-ray's own pixel spacing decides between binning and another panel: it must agree.
-  for (const std::string& difference : XRayTagDisagreements(file, *binned, isocenter, ToString(position)))
-    if (difference.find("Pixel Spacing") != std::string::npos)
-      throw InputError(file, "read as imager " + panel.name + "'s panel binned " + std::to_string(panel.Columns() / dims[0]) + "x" +
-          std::to_string(panel.Rows() / dims[1]) + ", but its tags disagree: " + difference);
+  for (const std::string& difference : XRayTagDisagreements(file, *binned, isocenter, ToString(position), XRayTagSubset::PixelSpacing))
+    throw InputError(file, "read as imager " + panel.name + "'s panel binned " + std::to_string(panel.Columns() / dims[0]) + "x" +
+        std::to_string(panel.Rows() / dims[1]) + ", but its tags disagree: " + difference);
   return *binned;
 }
 

@@ -8,6 +8,7 @@
 #include "xpImageIO.h"
 #include "xpRTImage.h"
 #include "xpSpatialRegistration.h"
+#include "xpXRayGeometryTags.h"
 #include "xpTestDICOM.h"
 #include "xpTestFolders.h"
 
@@ -143,6 +144,16 @@ TEST(RTImage, DisagreementsWithAGeometryFileNameTheTagAndBothValues)
   EXPECT_NE(moved[0].find("has 1501.99"), std::string::npos) << moved[0];
   EXPECT_NE(moved[1].find("(3002,000D)"), std::string::npos) << moved[1];
   EXPECT_TRUE(xp::RTImageDisagreements(ct.files.front(), a, reference.isocenter).empty()) << "a CT image has no imager";
+
+  // The pixel spacing alone: what tells a binned read-out from another panel. Another gantry
+  // angle is no concern of it; the same panel at twice the spacing is.
+  EXPECT_TRUE(xp::RTImageDisagreements(path, b, reference.isocenter, xp::XRayTagSubset::PixelSpacing).empty());
+  const std::vector<std::string> binned =
+    xp::RTImageDisagreements(path, *a.Binned(32, 24), reference.isocenter, xp::XRayTagSubset::PixelSpacing);
+  ASSERT_EQ(binned.size(), 1u);
+  EXPECT_NE(binned[0].find("Image Plane Pixel Spacing (3002,0011)"), std::string::npos) << binned[0];
+  EXPECT_EQ(xp::XRayTagDisagreements(path, *a.Binned(32, 24), reference.isocenter, "", xp::XRayTagSubset::PixelSpacing), binned)
+    << "an RT Image's tags, whatever the kind of X-ray asked";
 }
 
 TEST(SecondaryCapture, TheReportPictureIsAValidImageInTheCTsStudy)
