@@ -251,8 +251,17 @@ CouchMotion CouchAt(const Fields& f, Eigen::Vector3d& targetInCT, ActionLevels& 
   if (motions != "6dof" && motions != "4dof")
     f.Fail("couch.couch", "must be 6dof or 4dof");
   c.couch.motions = ParseCouchMotions(motions, "couch.couch");
-  if (f.At("couch.rotation_limit_deg").isNumeric())
-    c.couch.pitchRollLimitDegrees = f.Number("couch.rotation_limit_deg");
+  // A limit is a number, or null where there is none (CouchValue); anything else is refused.
+  const auto limit = [&f](const std::string& field)
+  {
+    if (f.At(field).isNull())
+      return std::numeric_limits<double>::infinity();
+    const double value = f.Number(field);
+    if (!(std::isfinite(value) && value >= 0.0))
+      f.Fail(field, "must be a number of at least 0, or null for none");
+    return value;
+  };
+  c.couch.pitchRollLimitDegrees = limit("couch.rotation_limit_deg");
   const auto point = [&f](const std::string& field)
   {
     const std::vector<double> p = f.Numbers(field);
@@ -287,8 +296,6 @@ CouchMotion CouchAt(const Fields& f, Eigen::Vector3d& targetInCT, ActionLevels& 
   if (!known)
     f.Fail("couch.action", "must be none_needed, move or set_up_again");
   c.actionReason = f.Text("couch.action_reason");
-  const auto limit = [&f](const std::string& field)
-  { return f.At(field).isNumeric() ? f.Number(field) : std::numeric_limits<double>::infinity(); };
   levels.actionMM = f.Number("couch.action_levels.mm");
   levels.actionDegrees = f.Number("couch.action_levels.deg");
   levels.maxUncorrectedMM = limit("couch.action_levels.max_uncorrected_mm");

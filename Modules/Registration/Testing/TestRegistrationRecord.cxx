@@ -150,9 +150,29 @@ TEST(RegistrationRecord, RoundTripsTheCouchMotion)
   for (const char* name : { "\"motions\"", "\"translation_mm\"", "\"rotation_center\"", "\"uncorrected_rotation_deg\"",
          "\"uncorrected_mm_at_50\"", "\"uncorrected_mm_at_100\"", "\"limited_by\"", "\"action\" : \"move\"" })
     EXPECT_NE(json.find(name), std::string::npos) << name;
-  // A failed result with a couch block is a damaged record.
+  // A limit is a number of at least 0 or null (none); a word or a negative one is a damaged
+  // record, refused naming the field, not read as no limit.
   Json::Value root;
   std::istringstream(json) >> root;
+  for (const Json::Value& bad : { Json::Value("3"), Json::Value(-1.0), Json::Value(Json::objectValue) })
+    for (const char* field : { "rotation_limit_deg", "max_uncorrected_mm" })
+    {
+      Json::Value damaged = root;
+      (std::string(field) == "rotation_limit_deg" ? damaged["couch"][field] : damaged["couch"]["action_levels"][field]) = bad;
+      try
+      {
+        xp::ParseRegistrationRecord(damaged.toStyledString(), "result.json");
+        ADD_FAILURE() << field << " = " << bad.toStyledString() << " was read";
+      }
+      catch (const xp::InputError& e)
+      {
+        EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+      }
+    }
+  Json::Value unlimited = root;
+  unlimited["couch"]["rotation_limit_deg"] = Json::Value(Json::nullValue);
+  EXPECT_TRUE(std::isinf(xp::ParseRegistrationRecord(unlimited.toStyledString(), "result.json").couch->couch.pitchRollLimitDegrees));
+  // A failed result with a couch block is a damaged record.
   root["status"] = "failed";
   root["failures"].append(Json::Value(Json::objectValue));
   root["failures"][0]["code"] = "low_explained";
