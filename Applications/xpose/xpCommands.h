@@ -22,6 +22,8 @@
 
 namespace xp
 {
+
+struct RegistrationRecord;
 struct Pose;
 
 enum ExitCode
@@ -255,8 +257,15 @@ int RunBenchRegister(const BenchRegisterOptions& options);
 int RunMask(const MaskOptions& options);
 int RunSimulate(const SimulateOptions& options);
 int RunRegister(const RegisterOptions& options);
+/** RunRegister on local files (options.ct and options.xrays): reads, registers, writes every
+ *  output asked for and prints the result; returns the record written as result.json. */
+RegistrationRecord RegisterFiles(const RegisterOptions& options);
 int RunEvaluate(const EvaluateOptions& options);
 int RunReport(const ReportOptions& options);
+/** The visual report of a registration whose result.json and masks are in `resultFolder`, from
+ *  its record and the inputs it read (register passes its own; report reads them again). */
+void WriteReportOf(
+  const RegistrationRecord& result, const RegistrationInputs& inputs, const std::string& resultFolder, const std::string& directory);
 /** Prints, per frame, the moving volume's pose in the reference volume's coordinates (both
  *  from their result.json's volume_to_room) and its change from the first frame. */
 int RunRelative(const RelativeOptions& options);

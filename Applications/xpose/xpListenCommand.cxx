@@ -128,14 +128,15 @@ public:
     registration.reportDirectory = out + "/report";
     registration.dicomOutputDirectory = out + "/dicom";
     LogLine("study " + studyUID + ": registering pair " + std::to_string(count) + " into " + out);
-    const int code = GuardedRun("listen", [&] { return RunRegister(registration); });
     std::string couch;
-    if (code == ExitOk)
-    {
-      const RegistrationRecord record = ReadRegistrationRecord(out + "/result.json");
-      if (record.couch)
-        couch = "; couch " + record.couch->Summary();
-    }
+    const int code = GuardedRun("listen",
+      [&]
+      {
+        const RegistrationRecord record = RegisterFiles(registration);
+        if (record.couch)
+          couch = "; couch " + record.couch->Summary();
+        return record.ok ? ExitOk : ExitRegistrationFailed;
+      });
     LogLine("study " + studyUID + ": pair " + std::to_string(count) +
       (code == ExitOk ? " ok" : code == ExitRegistrationFailed ? " FAILED (do not apply)" : " not registered (error above)") +
       couch);

@@ -184,6 +184,11 @@ int RunRegister(const RegisterOptions& options)
   }
   if (options.ct.empty() || options.xrays.empty())
     throw InputError(options.ct.empty() ? "--ct" : "--xray", "is required (or --pacs with --study or --ct-series and --xray-instance)");
+  return RegisterFiles(options).ok ? ExitOk : ExitRegistrationFailed;
+}
+
+RegistrationRecord RegisterFiles(const RegisterOptions& options)
+{
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
   const ComputeDevice device = UseDevice(options.device);
@@ -237,19 +242,14 @@ int RunRegister(const RegisterOptions& options)
   WriteRegistrationFolder(session, options.outputDirectory);
   PrintResult(session.Record(), options.outputDirectory);
   if (!options.reportDirectory.empty())
-  {
-    ReportOptions report;
-    report.result = options.outputDirectory + "/result.json";
-    report.outputDirectory = options.reportDirectory;
-    RunReport(report);
-  }
+    WriteReportOf(session.Record(), inputs, options.outputDirectory, options.reportDirectory);
   if (dicomCT)
   {
     const std::string summary = options.reportDirectory.empty() ? "" : options.reportDirectory + "/summary.png";
     const std::string written = WriteDICOMRegistration(session, *dicomCT, options.dicomOutputDirectory, summary);
     std::printf("DICOM: %s in %s\n", written.c_str(), options.dicomOutputDirectory.c_str());
   }
-  return result.ok ? ExitOk : ExitRegistrationFailed;
+  return session.Record();
 }
 
 } // namespace xp

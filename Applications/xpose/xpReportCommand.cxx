@@ -69,27 +69,22 @@ void RenderRoom(const RegistrationInputs& inputs, ReportContent& content)
 
 } // namespace
 
-int RunReport(const ReportOptions& options)
+void WriteReportOf(
+  const RegistrationRecord& result, const RegistrationInputs& inputs, const std::string& resultFolder, const std::string& directory)
 {
-  const RegistrationRecord result = ReadRegistrationRecord(options.result);
+  const std::string origin = resultFolder + "/result.json";
   if (!result.inputs)
-    throw InputError(options.result, "field 'inputs' is missing: the report needs the files xpose register read");
+    throw InputError(origin, "field 'inputs' is missing: the report needs the files xpose register read");
   const RegistrationRecordInputs& recorded = *result.inputs;
-  const std::string resultFolder = std::filesystem::path(options.result).parent_path().string();
-  const std::string directory =
-    options.outputDirectory.empty() ? (resultFolder.empty() ? std::string("report") : resultFolder + "/report") : options.outputDirectory;
-  const RegistrationSources inputsOf = RecordedSources(recorded, options.result);
-  const RegistrationInputs inputs = ReadRegistrationInputs(inputsOf);
-
-  std::string title = "CT " + inputsOf.ct + "; X-rays";
-  for (const std::string& xray : inputsOf.xrays)
+  std::string title = "CT " + recorded.ct + "; X-rays";
+  for (const std::string& xray : recorded.xrays)
     title += " " + xray;
   ReportContent content = ReportContentOf(result, title);
   for (size_t index = 0; index < inputs.views.size(); ++index)
   {
     const XRayView& view = inputs.views[index].view;
     if (index >= result.viewNames.size() || result.viewNames[index] != view.name)
-      throw InputError(options.result, "field 'views' does not list imager " + view.name + " of " + recorded.geometry);
+      throw InputError(origin, "field 'views' does not list imager " + view.name + " of " + recorded.geometry);
     std::vector<uint8_t> mask =
       RowsTopFirst<uint8_t>(ReadMaskPNG(resultFolder + "/mask_" + view.name + ".png", view.Columns(), view.Rows()));
     content.views.push_back(
@@ -98,6 +93,19 @@ int RunReport(const ReportOptions& options)
   RenderRoom(inputs, content);
   WriteReport(content, directory);
   std::printf("report: %s/index.html and %s/summary.png\n", directory.c_str(), directory.c_str());
+}
+
+int RunReport(const ReportOptions& options)
+{
+  const RegistrationRecord result = ReadRegistrationRecord(options.result);
+  if (!result.inputs)
+    throw InputError(options.result, "field 'inputs' is missing: the report needs the files xpose register read");
+  const std::string resultFolder = std::filesystem::path(options.result).parent_path().string();
+  const std::string directory =
+    options.outputDirectory.empty() ? (resultFolder.empty() ? std::string("report") : resultFolder + "/report") : options.outputDirectory;
+  // The inputs as recorded, each X-ray checked to be the one registered.
+  const RegistrationInputs inputs = ReadRegistrationInputs(RecordedSources(*result.inputs, options.result));
+  WriteReportOf(result, inputs, resultFolder.empty() ? "." : resultFolder, directory);
   return ExitOk;
 }
 
