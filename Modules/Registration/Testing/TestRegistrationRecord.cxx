@@ -6,6 +6,9 @@
 #include <gtest/gtest.h>
 #include <vtk_jsoncpp.h>
 
+#include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 
 namespace
@@ -306,4 +309,46 @@ TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)
   text = good;
   text.replace(text.find("\"failed\""), 8, "\"ok\"");
   EXPECT_NE(refusal(text).find("'failures'"), std::string::npos) << "ok with failures: " << refusal(text);
+}
+
+// The user guide's table of result.json's fields names every field a record can hold, and no
+// field a record does not write: a field added to the record without its line there, or a line
+// left behind by a renamed field, fails here.
+TEST(RegistrationRecord, TheUserGuideListsEveryFieldItWrites)
+{
+  xp::RegistrationRecord everything = FailedRecord(); // with every optional part below
+  everything.couch.emplace();
+  everything.restartsApartMM = 0.25;
+  everything.restartsApartDegrees = 0.1;
+  everything.volumeToRoom = Eigen::Isometry3d::Identity();
+  everything.edgeDistanceMM = everything.edgeDistanceShiftedMM = { 0.5, 0.75 };
+  everything.xrayCorrelation = { -0.5, 0.25 };
+  everything.inputs.emplace().ct = "/data/ct";
+  Json::Value root;
+  std::istringstream(xp::RegistrationRecordJSON(everything)) >> root;
+  std::set<std::string> written;
+  for (const std::string& name : root.getMemberNames())
+    written.insert(name);
+
+  std::ifstream guide(std::string(XP_SOURCE_DIR) + "/Documentation/UserGuide.md");
+  ASSERT_TRUE(guide) << "Documentation/UserGuide.md not found under " << XP_SOURCE_DIR;
+  // The table's rows: from the line that starts with the `status` row to the table's end; each
+  // row's first cell names one or more fields in backquotes.
+  std::set<std::string> listed;
+  bool inTable = false;
+  for (std::string line; std::getline(guide, line);)
+  {
+    inTable = inTable ? line.rfind('|', 0) == 0 : line.rfind("| `status` |", 0) == 0;
+    if (!inTable)
+      continue;
+    const std::string cell = line.substr(1, line.find('|', 1) - 1);
+    static const std::regex name("`([a-z0-9_]+)`");
+    for (auto match = std::sregex_iterator(cell.begin(), cell.end(), name); match != std::sregex_iterator(); ++match)
+      listed.insert((*match)[1]);
+  }
+  ASSERT_FALSE(listed.empty()) << "no `status` row in the user guide's result.json table";
+  for (const std::string& field : written)
+    EXPECT_TRUE(listed.count(field)) << "result.json writes '" << field << "', which the user guide's table does not list";
+  for (const std::string& field : listed)
+    EXPECT_TRUE(written.count(field)) << "the user guide lists '" << field << "', which no result.json holds";
 }
