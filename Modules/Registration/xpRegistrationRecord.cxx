@@ -17,6 +17,9 @@ namespace xp
 namespace
 {
 
+/** The pose's axes as the record names them (`uncertainty`, `held_out_leads`). */
+const char* const axes[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
+
 Json::Value PoseValue(const Pose& pose)
 {
   Json::Value value(Json::objectValue);
@@ -377,6 +380,32 @@ void ReadConvergence(const Fields& f, RegistrationRecord& r)
     }
 }
 
+/** The gate's own figures: each view's halves and polarity, the held-out leads, the bones'
+ *  restarts; absent from records written before each, where `r` keeps its defaults. */
+void ReadGateFigures(const Fields& f, RegistrationRecord& r)
+{
+  if (f.Has("halves_apart_mm") && !f.At("halves_apart_mm").empty()) // empty where no halves were measured
+    r.halvesApartMM = f.PerViewNumbers("halves_apart_mm", r.viewNames);
+  if (f.Has("held_out_leads"))
+    for (int a = 0; a < 6; ++a)
+    {
+      const std::string at = std::string("held_out_leads.") + axes[a];
+      const std::vector<double> leads = f.Numbers(at);
+      if (leads.size() != 2)
+        f.Fail(at, "must hold 2 numbers (the neighbours at -step and +step)");
+      r.peakLeads[2 * a] = leads[0];
+      r.peakLeads[2 * a + 1] = leads[1];
+    }
+  if (f.Has("xray_polarity"))
+    for (const std::string& name : r.viewNames)
+      r.xrayCorrelation.push_back(f.Number("xray_polarity." + name + ".correlation_with_drr"));
+  if (f.Has("restarts_apart"))
+  {
+    r.restartsApartMM = f.Number("restarts_apart.mm");
+    r.restartsApartDegrees = f.Number("restarts_apart.degrees");
+  }
+}
+
 /** result.json's `volume_to_room` and `volume_center` into `r`. */
 void ReadPlacement(const Fields& f, RegistrationRecord& r)
 {
@@ -524,7 +553,6 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
   root["search_disagreement"]["objective_ratio"] = r.searchObjectiveRatio;
   // Per axis: the distance over which the similarity falls by 5 % of its value at the result
   // (null: no maximum along that axis); and the result's least lead over its held-out neighbours.
-  static const char* axes[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
   for (int a = 0; a < 6; ++a)
     root["uncertainty"][axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
   root["peak_margin"] = r.peakMargin;
@@ -600,7 +628,6 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   r.correction = f.PoseAt("correction");
   if (root.isMember("uncertainty") && root["uncertainty"].isObject()) // null: no maximum along that axis
   {
-    static const char* axes[6] = { "tx_mm", "ty_mm", "tz_mm", "pitch_deg", "roll_deg", "yaw_deg" };
     for (int a = 0; a < 6; ++a)
     {
       const Json::Value& value = root["uncertainty"][axes[a]];
@@ -678,6 +705,7 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   }
   if (r.ok != r.failures.empty())
     f.Fail("failures", "must be empty exactly when status is ok");
+  ReadGateFigures(f, r);
   if (f.Has("couch")) // absent for a failed result and in records written before the couch
   {
     if (!r.ok)

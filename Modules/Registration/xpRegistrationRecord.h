@@ -50,7 +50,7 @@ struct RegistrationRecord
   ActionLevels actionLevels;
   Pose initialPose; ///< where the search began (--initial-pose; zero: the planned set-up)
   bool boneOnly = false;                                   ///< matched within the bone's shadow
-  double restartsApartMM = -1.0, restartsApartDegrees = -1.0; ///< bones: restarts' farthest end (written only)
+  double restartsApartMM = -1.0, restartsApartDegrees = -1.0; ///< bones: restarts' farthest end (-1: none)
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
   std::vector<double> xraySmoothingPixels; ///< per view: the X-ray's smoothing sd (pixels)
@@ -67,14 +67,14 @@ struct RegistrationRecord
   double searchApartMM = 0.0, searchApartDegrees = 0.0, searchObjectiveRatio = 1.0;
   std::array<double, 6> uncertainty{}; ///< per axis (mm, degrees); infinite: no maximum along it
   /** Per view: correlation of the X-ray with the DRR at the start pose (< 0: bright means
-   *  attenuation, as log images); written, not read back. */
+   *  attenuation, as log images). */
   std::vector<double> xrayCorrelation;
-  std::vector<double> halvesApartMM; ///< per view; written, not read back
+  std::vector<double> halvesApartMM; ///< per view
   /** Per view: StereoRegistrationResult::edgeDistanceMM and edgeDistanceShiftedMM (empty in
    *  records written before them). */
   std::vector<double> edgeDistanceMM, edgeDistanceShiftedMM;
   double peakMargin = 0.0;
-  std::array<double, 12> peakLeads{}; ///< StereoRegistrationResult::peakLeads; written, not read back
+  std::array<double, 12> peakLeads{}; ///< StereoRegistrationResult::peakLeads
   /** The 6-DOF stages as they ran: where each begins in the trace, its evaluations, its images'
    *  size and its wall time (evaluations and size: 0 in records written before them). */
   std::vector<RegistrationStage> stages;

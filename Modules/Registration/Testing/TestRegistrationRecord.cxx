@@ -59,8 +59,19 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   in.xrayMD5 = { "0123", "4567" };
   in.muWater = 0.0193;
   in.removeTable = true;
+  written.halvesApartMM = { 0.125, 1.5 };
+  written.xrayCorrelation = { -0.75, 0.5 };
+  written.restartsApartMM = 0.3;
+  written.restartsApartDegrees = 0.2;
+  for (size_t i = 0; i < written.peakLeads.size(); ++i)
+    written.peakLeads[i] = 0.01 * static_cast<double>(i + 1);
   const xp::RegistrationRecord read = xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(written), "result.json");
   EXPECT_FALSE(read.ok);
+  EXPECT_EQ(read.halvesApartMM, written.halvesApartMM) << "each view's halves under its own name";
+  EXPECT_EQ(read.xrayCorrelation, written.xrayCorrelation);
+  EXPECT_EQ(read.peakLeads, written.peakLeads) << "each lead under its axis and side";
+  EXPECT_DOUBLE_EQ(read.restartsApartMM, 0.3);
+  EXPECT_DOUBLE_EQ(read.restartsApartDegrees, 0.2);
   EXPECT_EQ(read.viewNames, written.viewNames) << "the views keep the geometry's order, not the alphabet's";
   EXPECT_LT((read.misalignment.translation - written.misalignment.translation).norm(), 1e-9);
   EXPECT_DOUBLE_EQ(read.misalignment.yaw, 1.0);
@@ -109,7 +120,10 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   ASSERT_TRUE(read.inputs.has_value());
   EXPECT_EQ(read.inputs->xrays, in.xrays);
   EXPECT_TRUE(read.inputs->removeTable);
-  EXPECT_FALSE(xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r").inputs.has_value());
+  const xp::RegistrationRecord plain = xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r");
+  EXPECT_FALSE(plain.inputs.has_value());
+  EXPECT_TRUE(plain.halvesApartMM.empty()) << "no halves measured, none read";
+  EXPECT_LT(plain.restartsApartMM, 0.0) << "not a bone: no restarts";
 }
 
 // An ok result's couch block: written and read back, each figure in its place; refused on a
