@@ -39,6 +39,9 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
       "stop looser, restart once) or standard (the earlier schedule: more and larger DRRs; Algorithms.md, \"The schedule\")")
     ->check(CLI::IsMember({ "standard", "economy" }))
     ->default_str("economy");
+  command->add_flag("--choose-table", settings.chooseTable,
+    "Pre-align the CT with its table and its body alone, and register the one whose DRRs match the X-rays better "
+    "(the CT's table shows in a renderer's X-rays, never in a room's; result.json `table`)");
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds of moving the refinement's end to the vertex of the objective's parabola along each axis, through its values "
     "1.5 mm and 1 degree either side (0: off)")->capture_default_str();

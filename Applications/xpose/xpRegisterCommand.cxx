@@ -1,4 +1,5 @@
 #include "xpCommands.h"
+#include "xpBodyMask.h"
 
 #include "vtkXPStereoRegistrationFilter.h"
 #include "xpDICOMArchive.h"
@@ -79,6 +80,15 @@ Pose FoundStart(const RegistrationSession& session)
 /** What the registration found at each stage, after the filter has run. */
 void PrintStages(const StereoRegistrationResult& result, const std::vector<RegistrationView>& views)
 {
+  if (result.table && result.table->tableCM3 > 0.0)
+    std::printf("table: %.0f cm3 outside the body; pre-aligned, the X-rays match the CT %s (objective %.4f) better than %s "
+                "(%.4f): registered %s\n",
+      result.table->tableCM3, result.table->keptTable ? "with it" : "without it",
+      result.table->keptTable ? result.table->withTable : result.table->bodyOnly,
+      result.table->keptTable ? "the body alone" : "with it", result.table->keptTable ? result.table->bodyOnly : result.table->withTable,
+      result.table->keptTable ? "with the table" : "the body alone");
+  else if (result.table)
+    std::printf("table: nothing outside the body denser than %.0f HU: the CT registered as given\n", BodyMaskSettings{}.tableHU);
   std::printf("pre-alignment: %s, %d iterations (%.2f s)\nmasks: valid fraction", result.prealignment.pose.ToString().c_str(),
     result.prealignment.iterations, result.prealignSeconds);
   for (size_t v = 0; v < views.size(); ++v)

@@ -88,6 +88,8 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
   r.peakLeads = result.peakLeads;
   r.edgeMM = result.edgeDistanceMM;
   r.edgeMovedMM = result.edgeDistanceShiftedMM;
+  if (result.table)
+    r.table = result.table->keptTable ? "ct" : "body_only";
   r.uncertaintyMM = std::max({ result.uncertainty[0], result.uncertainty[1], result.uncertainty[2] });
   r.uncertaintyDegrees = std::max({ result.uncertainty[3], result.uncertainty[4], result.uncertainty[5] });
   for (const std::string& reason : result.Reasons())

@@ -119,7 +119,7 @@ std::string TrialCSVHeader()
     header += std::string(",error_") + axis;
   return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
                   "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
-                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,edge_mm,edge_moved_mm,reasons";
+                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,edge_mm,edge_moved_mm,table,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -149,7 +149,7 @@ std::string TrialCSVRow(const TrialRecord& r)
     for (size_t v = 0; v < perView->size(); ++v)
       row << (v ? " " : "") << (*perView)[v];
   }
-  row << ',' << reasons;
+  row << ',' << r.table << ',' << reasons;
   return row.str();
 }
 
@@ -226,6 +226,7 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
         if (!values.eof())
           throw std::invalid_argument("edge figures");
       }
+      r.table = f[i++];
       r.reasons = f[i++];
       records.push_back(r);
     }

@@ -244,7 +244,7 @@ long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body)
   return changed;
 }
 
-vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings& settings, long long* removed)
+vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings& settings, long long* removed, long long* table)
 {
   vtkDataArray* scalars = ct ? ct->GetPointData()->GetScalars() : nullptr;
   if (!scalars || scalars->GetNumberOfComponents() != 1)
@@ -271,8 +271,15 @@ vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings&
   body->GetPointData()->SetScalars(values);
   int dims[3];
   ct->GetDimensions(dims);
-  const long long cleared =
-    ClearOutsideBody(values->GetPointer(0), SegmentBody(values->GetPointer(0), Eigen::Vector3i(dims[0], dims[1], dims[2]), settings));
+  const std::vector<uint8_t> inBody = SegmentBody(values->GetPointer(0), Eigen::Vector3i(dims[0], dims[1], dims[2]), settings);
+  if (table)
+  {
+    const float dense = static_cast<float>(settings.tableHU);
+    *table = 0;
+    for (size_t i = 0; i < inBody.size(); ++i)
+      *table += !inBody[i] && to[i] > dense;
+  }
+  const long long cleared = ClearOutsideBody(values->GetPointer(0), inBody);
   if (removed)
     *removed = cleared;
   return body;

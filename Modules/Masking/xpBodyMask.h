@@ -34,6 +34,9 @@ struct BodyMaskSettings
   int openingRadius = 3;
   /** Voxels added around the kept tissue in each slice: the skin's partial-volume rim. */
   int dilation = 1;
+  /** Outside the body and denser than this (HU): the CT's table, its foam and shell, not air or
+   *  its noise (BodyOnly's `table`). */
+  double tableHU = -850.0;
 };
 
 /**
@@ -49,9 +52,10 @@ VTKXPMASKING_EXPORT std::vector<uint8_t> SegmentBody(
 VTKXPMASKING_EXPORT long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body);
 
 /** A float copy of a HU image with everything outside the body set to air: the CT without its
- *  table. `removed` (optional) receives the number of voxels cleared. */
+ *  table. `removed` (optional) receives the number of voxels cleared, `table` (optional) those of
+ *  them denser than settings.tableHU. */
 VTKXPMASKING_EXPORT vtkSmartPointer<vtkImageData> BodyOnly(
-  vtkImageData* ct, const BodyMaskSettings& settings = {}, long long* removed = nullptr);
+  vtkImageData* ct, const BodyMaskSettings& settings = {}, long long* removed = nullptr, long long* table = nullptr);
 
 } // namespace xp
 

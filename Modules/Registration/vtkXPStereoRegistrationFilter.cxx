@@ -1,6 +1,7 @@
 #include "vtkXPStereoRegistrationFilter.h"
 
 #include "vtkXPDRRFilter.h"
+#include "xpBodyMask.h"
 #include "xpError.h"
 #include "xpImageGeometry.h"
 #include "xpCatchErrors.h"
@@ -282,6 +283,22 @@ const xp::AttenuationVolume& vtkXPStereoRegistrationFilter::Attenuation(vtkImage
   return *this->Volume;
 }
 
+const xp::AttenuationVolume* vtkXPStereoRegistrationFilter::BodyAttenuation(vtkImageData* ct)
+{
+  if (ct != this->BodySource || ct->GetMTime() != this->BodyTime || this->MuWater != this->BodyMuWater)
+  {
+    long long tableVoxels = 0;
+    const vtkSmartPointer<vtkImageData> body = xp::BodyOnly(ct, {}, nullptr, &tableVoxels);
+    const double* spacing = ct->GetSpacing();
+    this->TableCM3 = static_cast<double>(tableVoxels) * std::abs(spacing[0] * spacing[1] * spacing[2]) / 1000.0;
+    this->BodyVolume = tableVoxels > 0 ? xp::MakeAttenuationVolume(body, this->MuWater) : nullptr;
+    this->BodySource = ct;
+    this->BodyTime = ct->GetMTime();
+    this->BodyMuWater = this->MuWater;
+  }
+  return this->BodyVolume.get();
+}
+
 void vtkXPStereoRegistrationFilter::WriteOutputs(vtkInformationVector* outputVector)
 {
   for (size_t v = 0; v < this->Geometry.views.size(); ++v)
@@ -333,7 +350,28 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
       this->SetProgressText(progress.stage.c_str());
       this->UpdateProgress(progress.fraction);
     };
-    this->SetResult(xp::RegisterStereo(volume, planned, this->Geometry.isocenter, views, this->Settings, observer));
+    if (!this->Settings.chooseTable)
+    {
+      this->SetResult(xp::RegisterStereo(volume, planned, this->Geometry.isocenter, views, this->Settings, observer));
+    }
+    else
+    {
+      // Each CT pre-aligned on its own: the one whose DRRs match the X-rays better is registered
+      // (xp::TableChoice); a tie keeps the body alone, which is what a room shows.
+      xp::TableChoice choice;
+      const xp::AttenuationVolume* body = this->BodyAttenuation(ct);
+      choice.tableCM3 = this->TableCM3;
+      if (body)
+      {
+        choice.withTable = xp::PreAlignStereo(volume, planned, this->Geometry.isocenter, views, this->Settings).objective;
+        choice.bodyOnly = xp::PreAlignStereo(*body, planned, this->Geometry.isocenter, views, this->Settings).objective;
+        choice.keptTable = choice.withTable > choice.bodyOnly;
+      }
+      xp::StereoRegistrationResult result = xp::RegisterStereo(
+        choice.keptTable ? volume : *body, planned, this->Geometry.isocenter, views, this->Settings, observer);
+      result.table = choice;
+      this->SetResult(std::move(result));
+    }
     this->WriteOutputs(outputVector);
   }
   catch (const xp::Error& e)

@@ -132,6 +132,9 @@ private:
 
   /** The CT's attenuation, kept while the CT and MuWater stay the same. */
   const xp::AttenuationVolume& Attenuation(vtkImageData* ct);
+  /** With Settings.chooseTable: the body alone's attenuation (xpBodyMask.h), kept like the CT's;
+   *  null where nothing outside the body is a table (TableCM3 0). */
+  const xp::AttenuationVolume* BodyAttenuation(vtkImageData* ct);
   void WriteOutputs(vtkInformationVector* outputVector);
   /** The result and the parameter copies Python reads, always together. */
   void SetResult(xp::StereoRegistrationResult result);
@@ -153,6 +156,11 @@ private:
   vtkImageData* VolumeSource = nullptr; ///< compared, never dereferenced
   vtkMTimeType VolumeTime = 0;
   double VolumeMuWater = 0.0;
+  std::unique_ptr<xp::AttenuationVolume> BodyVolume;
+  double TableCM3 = 0.0;
+  vtkImageData* BodySource = nullptr; ///< compared, never dereferenced
+  vtkMTimeType BodyTime = 0;
+  double BodyMuWater = 0.0;
 };
 
 #endif

@@ -406,6 +406,24 @@ void ReadGateFigures(const Fields& f, RegistrationRecord& r)
   }
 }
 
+/** result.json's `table`: what the X-rays chose, where they were asked (absent otherwise). */
+void ReadTableChoice(const Fields& f, RegistrationRecord& r)
+{
+  if (!f.Has("table"))
+    return;
+  TableChoice& table = r.table.emplace();
+  table.tableCM3 = f.Number("table.found_cm3");
+  if (table.tableCM3 > 0.0)
+  {
+    table.withTable = f.Number("table.prealignment_objective.with_table");
+    table.bodyOnly = f.Number("table.prealignment_objective.body_only");
+  }
+  const std::string from = f.Text("table.rendered_from");
+  if (from != "ct" && from != "body_only")
+    f.Fail("table.rendered_from", "must be \"ct\" or \"body_only\"");
+  table.keptTable = from == "ct";
+}
+
 /** result.json's `volume_to_room` and `volume_center` into `r`. */
 void ReadPlacement(const Fields& f, RegistrationRecord& r)
 {
@@ -462,6 +480,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.misalignment = result.misalignment;
   record.initialPose = result.start;
   record.boneOnly = result.boneOnly;
+  record.table = result.table;
   record.restartsApartMM = result.restartsApartMM;
   record.restartsApartDegrees = result.restartsApartDegrees;
   record.correction = result.correction;
@@ -511,6 +530,17 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     root["couch"] = CouchValue(*r.couch, r.actionLevels, r.targetInCT);
   root["initial_pose"] = PoseValue(r.initialPose);
   root["bone_only"] = r.boneOnly;
+  if (r.table)
+  {
+    Json::Value& table = root["table"];
+    table["found_cm3"] = r.table->tableCM3;
+    if (r.table->tableCM3 > 0.0)
+    {
+      table["prealignment_objective"]["with_table"] = r.table->withTable;
+      table["prealignment_objective"]["body_only"] = r.table->bodyOnly;
+    }
+    table["rendered_from"] = r.table->keptTable ? "ct" : "body_only";
+  }
   if (r.restartsApartMM >= 0.0)
   {
     root["restarts_apart"]["mm"] = r.restartsApartMM;
@@ -706,6 +736,7 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
   if (r.ok != r.failures.empty())
     f.Fail("failures", "must be empty exactly when status is ok");
   ReadGateFigures(f, r);
+  ReadTableChoice(f, r);
   if (f.Has("couch")) // absent for a failed result and in records written before the couch
   {
     if (!r.ok)

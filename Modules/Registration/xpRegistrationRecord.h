@@ -50,6 +50,7 @@ struct RegistrationRecord
   ActionLevels actionLevels;
   Pose initialPose; ///< where the search began (--initial-pose; zero: the planned set-up)
   bool boneOnly = false;                                   ///< matched within the bone's shadow
+  std::optional<TableChoice> table; ///< with StereoRegistrationSettings::chooseTable: what the X-rays chose
   double restartsApartMM = -1.0, restartsApartDegrees = -1.0; ///< bones: restarts' farthest end (-1: none)
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view

@@ -768,7 +768,9 @@ public:
     this->Result.start = requested.initialPose;
   }
 
-  StereoRegistrationResult Run()
+  /** The schedule's stages in order, up to and including the first of kind `last` (all of them
+   *  without). */
+  StereoRegistrationResult Run(std::optional<StageKind> last = std::nullopt)
   {
     const std::vector<ScheduledStage>& stages = this->Result.schedule.stages;
     std::array<std::optional<PoseOptimizerResult>, 2> trackEnds;
@@ -862,6 +864,8 @@ public:
           break;
         }
       }
+      if (last && stage.kind == *last)
+        break;
     }
     this->Trace.End();
     this->Result.objectiveTrace = std::move(this->Trace.Objective);
@@ -1301,6 +1305,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   }
   ValidateGateLimits(requested);
   return StereoRegistrationRun(volume, plannedCTToRoom, roomIsocenter, givenViews, requested, observer).Run();
+}
+
+PreAlignmentResult PreAlignStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
+  const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings)
+{
+  return StereoRegistrationRun(volume, plannedCTToRoom, roomIsocenter, views, settings, {})
+    .Run(StageKind::PreAlignment)
+    .prealignment;
 }
 
 } // namespace xp

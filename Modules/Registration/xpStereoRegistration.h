@@ -18,6 +18,7 @@
 
 #include <array>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,9 @@ namespace xp
 
 struct StereoRegistrationSettings
 {
+  /** Register the CT with its table or its body alone, whichever the X-rays match better after
+   *  each one's pre-alignment (TableChoice; vtkXPStereoRegistrationFilter). false: the CT as given. */
+  bool chooseTable = false;
   bool entropyMask = true;       ///< exclude low-information regions (Method.md, stage 2)
   bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
   /** Every X-ray's 3x3 median is what the registration sees (xpImageLevels.h, Median3x3):
@@ -200,8 +204,23 @@ struct RegistrationStage
   int imageDivisor = 1;  ///< its images' size: the registration's divided by this per side
 };
 
+/**
+ * The CT's table, chosen for by the X-rays (StereoRegistrationSettings::chooseTable): a room's
+ * X-rays show its couch, or nothing, and a renderer's may show the CT's own table; no single
+ * choice suits all three (Algorithms.md, "The CT's table"). Both CTs, with the table and the
+ * body alone (xpBodyMask.h), are pre-aligned to the X-rays, and the one whose DRRs match them
+ * better is registered.
+ */
+struct TableChoice
+{
+  double tableCM3 = 0.0; ///< the CT outside the body above BodyMaskSettings::tableHU (0: no table, nothing chosen)
+  double withTable = 0.0, bodyOnly = 0.0; ///< each CT's pre-alignment objective (when a table was found)
+  bool keptTable = true; ///< the DRRs were rendered from the CT with its table
+};
+
 struct StereoRegistrationResult
 {
+  std::optional<TableChoice> table; ///< with chooseTable
   bool ok = false;
   std::string device = "cpu"; ///< where the rays were cast: ComputeDeviceDescription
   std::vector<GateFailure> failures; ///< why the gate failed (xpQualityGate.h); empty when ok
@@ -303,6 +322,15 @@ VTKXPREGISTRATION_EXPORT RegistrationSchedule MakeSchedule(
 VTKXPREGISTRATION_EXPORT StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
   const StereoRegistrationSettings& settings = {}, const RegistrationObserver& observer = {});
+
+/**
+ * The pre-alignment alone, as RegisterStereo runs it first (the schedule's first stage): where
+ * it ends (about `isocenter`) and its stereo objective. Two CTs of one patient pre-aligned to the
+ * same X-rays compare by that objective (StereoRegistrationSettings::chooseTable).
+ */
+VTKXPREGISTRATION_EXPORT PreAlignmentResult PreAlignStereo(const AttenuationVolume& volume,
+  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
+  const StereoRegistrationSettings& settings = {});
 
 /** Box average by an integer factor of a columns-wide image; for masks, a pixel is valid only
  *  when all it covers are. */

@@ -57,6 +57,7 @@ int vtkXPRegistrationSession::Run()
     settings.entropyMask = this->EntropyMask;
     settings.device = xp::ChooseComputeDevice(this->Device).device;
     settings.schedule = xp::ParseScheduleChoice(this->Schedule, "--schedule");
+    settings.chooseTable = this->ChooseTable;
     xp::SetOptimizers(this->Optimizer, settings, "optimizer");
     xp::CheckRegistrationSettings(settings);
     settings.initialPose = xp::Pose::FromParameters(this->InitialPose);

@@ -56,6 +56,10 @@ public:
   void SetRemoveTable(bool on) { this->RemoveTable = on; }
   ///@}
 
+  /** The CT with its table or the body alone, whichever the X-rays match better
+   *  (--choose-table; result.json `table`); not with SetRemoveTable. */
+  void SetChooseTable(bool on) { this->ChooseTable = on; }
+
   /** Where the search starts (--initial-pose: tx, ty, tz mm, pitch, roll, yaw degrees); zero:
    *  the planned set-up. */
   void SetInitialPose(double tx, double ty, double tz, double pitch, double roll, double yaw);
@@ -118,6 +122,7 @@ private:
   std::vector<std::string> XRayPaths, ROIPaths;
   double MuWater;
   bool RemoveTable = false;
+  bool ChooseTable = false;
   double InitialPose[6] = { 0, 0, 0, 0, 0, 0 };
   std::string Optimizer = "nelder-mead";
   bool EntropyMask = true;

@@ -92,6 +92,9 @@ std::vector<GlobalCandidate> RegistrationSession::FindStarts() const
 const RegistrationRecord& RegistrationSession::Run(const StereoRegistrationSettings& settings)
 {
   const Clock::time_point start = Clock::now();
+  if (settings.chooseTable && this->Given.removeTable)
+    throw InputError("--choose-table", "chooses between the CT with its table and the body alone; --remove-table takes the "
+                                       "body alone already: give one of them");
   this->RunSettings = settings;
   this->Registration->SetSettings(settings);
   this->Registration->Update();
@@ -105,7 +108,11 @@ const RegistrationRecord& RegistrationSession::Run(const StereoRegistrationSetti
   this->Recorded.readSeconds = this->SecondsToRead;
   this->Recorded.totalSeconds = this->SecondsToRead + Since(start);
   if (this->FromFiles())
+  {
     this->Recorded.inputs = RecordedInputs(this->Given, settings.entropyMask);
+    // The X-rays chose the body alone: the report renders its DRRs from it too.
+    this->Recorded.inputs->removeTable |= result.table && !result.table->keptTable;
+  }
   this->Recorded.volumeToRoom =
     MisalignedCTToRoom(this->Read.planned, result.misalignment, this->Read.setup.patient.roomIsocenter);
   this->Recorded.volumeCenter = ImageCenter(this->Read.setup.ct.image);

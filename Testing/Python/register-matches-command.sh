@@ -69,6 +69,17 @@ assert refused.Run() == -1 and "--schedule" in refused.GetLastError(), refused.G
 refused.SetSchedule("standard")
 refused.SetCouch("5dof")
 assert refused.Run() == -1 and "--couch" in refused.GetLastError(), refused.GetLastError()
+# Choosing between the CT with its table and the body alone, and taking the body alone, at once.
+both = xpose.vtkXPRegistrationSession()
+both.GlobalWarningDisplayOff()
+both.SetCTPath(f"{work}/ct")
+both.SetGeometryPath(geometry)
+both.AddXRayPath(f"{work}/xray/xray_A.png")
+both.AddXRayPath(f"{work}/xray/xray_B.png")
+both.SetSize("256x192")
+both.SetRemoveTable(True)
+both.SetChooseTable(True)
+assert both.Run() == -1 and "--choose-table" in both.GetLastError(), both.GetLastError()
 
 def without_times(record):
     record.pop("timing_s")

@@ -65,8 +65,18 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   written.restartsApartDegrees = 0.2;
   for (size_t i = 0; i < written.peakLeads.size(); ++i)
     written.peakLeads[i] = 0.01 * static_cast<double>(i + 1);
+  xp::TableChoice& table = written.table.emplace();
+  table.tableCM3 = 1285.5;
+  table.withTable = 6.125;
+  table.bodyOnly = 6.5;
+  table.keptTable = false;
   const xp::RegistrationRecord read = xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(written), "result.json");
   EXPECT_FALSE(read.ok);
+  ASSERT_TRUE(read.table.has_value());
+  EXPECT_DOUBLE_EQ(read.table->tableCM3, 1285.5);
+  EXPECT_DOUBLE_EQ(read.table->withTable, 6.125) << "each CT's objective under its own name";
+  EXPECT_DOUBLE_EQ(read.table->bodyOnly, 6.5);
+  EXPECT_FALSE(read.table->keptTable);
   EXPECT_EQ(read.halvesApartMM, written.halvesApartMM) << "each view's halves under its own name";
   EXPECT_EQ(read.xrayCorrelation, written.xrayCorrelation);
   EXPECT_EQ(read.peakLeads, written.peakLeads) << "each lead under its axis and side";
@@ -123,6 +133,7 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   const xp::RegistrationRecord plain = xp::ParseRegistrationRecord(xp::RegistrationRecordJSON(FailedRecord()), "r");
   EXPECT_FALSE(plain.inputs.has_value());
   EXPECT_TRUE(plain.halvesApartMM.empty()) << "no halves measured, none read";
+  EXPECT_FALSE(plain.table.has_value()) << "no choice asked for, none read";
   EXPECT_LT(plain.restartsApartMM, 0.0) << "not a bone: no restarts";
 }
 
@@ -332,6 +343,7 @@ TEST(RegistrationRecord, TheUserGuideListsEveryFieldItWrites)
 {
   xp::RegistrationRecord everything = FailedRecord(); // with every optional part below
   everything.couch.emplace();
+  everything.table.emplace().tableCM3 = 1200.0;
   everything.restartsApartMM = 0.25;
   everything.restartsApartDegrees = 0.1;
   everything.volumeToRoom = Eigen::Isometry3d::Identity();

@@ -1,5 +1,6 @@
 // The 6-DOF objective and optimiser recover known misalignments of the head phantom from
 // simulated stereo X-rays, with the signs of Coordinates.md.
+#include "xpBodyMask.h"
 #include "xpCTCoverage.h"
 #include "xpEntropyMask.h"
 #include "xpError.h"
@@ -1387,3 +1388,78 @@ TEST(StereoRegistrationOnGPU, FindsTheCPUsPose)
 }
 
 } // namespace
+
+namespace
+{
+
+/** `ct` as the filter's VTK input. */
+vtkSmartPointer<vtkImageData> CTImage(const xp::CTVolumeData& ct)
+{
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->SetDimensions(ct.dimensions.data());
+  image->SetSpacing(ct.spacing.data());
+  image->SetOrigin(ct.origin.data());
+  vtkNew<vtkFloatArray> hu;
+  hu->SetNumberOfValues(static_cast<vtkIdType>(ct.hounsfield.size()));
+  std::copy(ct.hounsfield.begin(), ct.hounsfield.end(), hu->GetPointer(0));
+  image->GetPointData()->SetScalars(hu);
+  return image;
+}
+
+/** A detector's rows, top first, as a VTK image (whose rows run up). */
+vtkSmartPointer<vtkImageData> XRayImage(const xp::RegistrationView& item)
+{
+  const int columns = item.view.Columns(), rows = item.view.Rows();
+  auto xray = vtkSmartPointer<vtkImageData>::New();
+  xray->SetDimensions(columns, rows, 1);
+  xray->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+  auto* p = static_cast<uint16_t*>(xray->GetScalarPointer());
+  for (int r = 0; r < rows; ++r)
+    std::copy(item.xray.begin() + r * columns, item.xray.begin() + (r + 1) * columns, p + (rows - 1 - r) * columns);
+  return xray;
+}
+
+} // namespace
+
+// The phantom's CT holds a head rest and a couch top; X-rays that show them (a renderer of that
+// CT) or not (a room): with chooseTable the registration renders the CT the X-rays show, and
+// says why. Fails if the choice ignores the X-rays, or if the table found or the objectives go
+// unreported.
+TEST(vtkXPStereoRegistrationFilter, ChoosesTheCTWithOrWithoutItsTableByTheXRays)
+{
+  const xp::CTVolumeData withTable = xp::MakeHeadPhantom(2.0);
+  xp::CTVolumeData body = withTable;
+  const std::vector<uint8_t> inBody = xp::SegmentBody(body.hounsfield.data(), body.dimensions);
+  long long tableVoxels = 0;
+  for (size_t i = 0; i < inBody.size(); ++i)
+    tableVoxels += !inBody[i] && body.hounsfield[i] > xp::BodyMaskSettings{}.tableHU;
+  xp::ClearOutsideBody(body.hounsfield.data(), inBody);
+  ASSERT_GT(tableVoxels, 10000) << "the phantom's head rest and couch top";
+  const vtkSmartPointer<vtkImageData> ct = CTImage(withTable);
+  const xp::Pose truth = xp::Pose::Parse("3,-2,2,1,-1,1.5", "truth");
+  for (const bool shown : { true, false })
+  {
+    const Scene scene(shown ? withTable : body);
+    vtkNew<vtkXPStereoRegistrationFilter> registration;
+    registration->SetCTData(ct);
+    xp::StereoGeometry geometry;
+    for (const xp::RegistrationView& item : Simulate(scene, truth, 7))
+    {
+      geometry.views.push_back(item.view);
+      registration->AddXRayData(XRayImage(item));
+    }
+    registration->SetGeometry(geometry);
+    xp::StereoRegistrationSettings settings;
+    settings.chooseTable = true;
+    registration->SetSettings(settings);
+    registration->Update();
+    const xp::StereoRegistrationResult& result = registration->GetResult();
+    ASSERT_TRUE(result.table.has_value()) << "chooseTable reports its choice";
+    EXPECT_DOUBLE_EQ(result.table->tableCM3, tableVoxels * 8.0 / 1000.0) << "2 mm voxels";
+    EXPECT_EQ(result.table->keptTable, shown) << (shown ? "X-rays that show the table" : "X-rays without it")
+                                              << ": with " << result.table->withTable << ", body alone " << result.table->bodyOnly;
+    EXPECT_EQ(result.table->withTable > result.table->bodyOnly, shown);
+    EXPECT_TRUE(result.ok) << Described(result);
+    EXPECT_LT((result.misalignment.translation - truth.translation).norm(), 0.5) << (shown ? "shown" : "not shown");
+  }
+}
