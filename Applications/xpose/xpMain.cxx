@@ -40,7 +40,7 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     ->check(CLI::IsMember({ "standard", "economy" }))
     ->default_str("economy");
   command->add_flag("--choose-table", settings.chooseTable,
-    "Pre-align the CT with its table and its body alone, and register the one whose DRRs match the X-rays better "
+    "Pre-align the CT with its table and its body alone, and register the one whose DRRs' edges match the X-rays' better there "
     "(the CT's table shows in a renderer's X-rays, never in a room's; result.json `table`)");
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds of moving the refinement's end to the vertex of the objective's parabola along each axis, through its values "

@@ -356,15 +356,18 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
     }
     else
     {
-      // Each CT pre-aligned on its own: the one whose DRRs match the X-rays better is registered
+      // Each CT pre-aligned on its own, then compared on the views' edges there (the refinement's
+      // high-passed objective): the one whose DRRs match the X-rays better is registered
       // (xp::TableChoice); a tie keeps the body alone, which is what a room shows.
       xp::TableChoice choice;
       const xp::AttenuationVolume* body = this->BodyAttenuation(ct);
       choice.tableCM3 = this->TableCM3;
       if (body)
       {
-        choice.withTable = xp::PreAlignStereo(volume, planned, this->Geometry.isocenter, views, this->Settings).objective;
-        choice.bodyOnly = xp::PreAlignStereo(*body, planned, this->Geometry.isocenter, views, this->Settings).objective;
+        const xp::PreAlignedCT a = xp::PreAlignStereo(volume, planned, this->Geometry.isocenter, views, this->Settings);
+        const xp::PreAlignedCT b = xp::PreAlignStereo(*body, planned, this->Geometry.isocenter, views, this->Settings);
+        choice.withTable = a.highPassedObjective;
+        choice.bodyOnly = b.highPassedObjective;
         choice.keptTable = choice.withTable > choice.bodyOnly;
       }
       xp::StereoRegistrationResult result = xp::RegisterStereo(

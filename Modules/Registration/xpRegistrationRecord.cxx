@@ -415,8 +415,8 @@ void ReadTableChoice(const Fields& f, RegistrationRecord& r)
   table.tableCM3 = f.Number("table.found_cm3");
   if (table.tableCM3 > 0.0)
   {
-    table.withTable = f.Number("table.prealignment_objective.with_table");
-    table.bodyOnly = f.Number("table.prealignment_objective.body_only");
+    table.withTable = f.Number("table.high_passed_objective.with_table");
+    table.bodyOnly = f.Number("table.high_passed_objective.body_only");
   }
   const std::string from = f.Text("table.rendered_from");
   if (from != "ct" && from != "body_only")
@@ -536,8 +536,8 @@ std::string RegistrationRecordJSON(const RegistrationRecord& r)
     table["found_cm3"] = r.table->tableCM3;
     if (r.table->tableCM3 > 0.0)
     {
-      table["prealignment_objective"]["with_table"] = r.table->withTable;
-      table["prealignment_objective"]["body_only"] = r.table->bodyOnly;
+      table["high_passed_objective"]["with_table"] = r.table->withTable;
+      table["high_passed_objective"]["body_only"] = r.table->bodyOnly;
     }
     table["rendered_from"] = r.table->keptTable ? "ct" : "body_only";
   }

@@ -875,6 +875,15 @@ public:
     return std::move(this->Result);
   }
 
+  /** After the pre-alignment: the refinement's objective (its high-pass, full size, the X-rays'
+   *  ROIs only) at `pose`: what the views' edges say, without the shading. */
+  double HighPassedObjectiveAt(const Pose& pose)
+  {
+    const std::unique_ptr<StereoSimilarity> similarity = this->Similarity(
+      this->Volume, this->Working.ranked, { this->Settings.equalizedLevels, this->Settings.fineHighPassMM, this->CorrelationMM });
+    return similarity->Evaluate(pose);
+  }
+
 private:
   Pose AboutIsocenter(const Pose& pose) const
   {
@@ -1307,12 +1316,14 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
   return StereoRegistrationRun(volume, plannedCTToRoom, roomIsocenter, givenViews, requested, observer).Run();
 }
 
-PreAlignmentResult PreAlignStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
+PreAlignedCT PreAlignStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
   const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings)
 {
-  return StereoRegistrationRun(volume, plannedCTToRoom, roomIsocenter, views, settings, {})
-    .Run(StageKind::PreAlignment)
-    .prealignment;
+  StereoRegistrationRun run(volume, plannedCTToRoom, roomIsocenter, views, settings, {});
+  PreAlignedCT aligned;
+  aligned.prealignment = run.Run(StageKind::PreAlignment).prealignment;
+  aligned.highPassedObjective = run.HighPassedObjectiveAt(aligned.prealignment.pose);
+  return aligned;
 }
 
 } // namespace xp

@@ -27,8 +27,8 @@ namespace xp
 
 struct StereoRegistrationSettings
 {
-  /** Register the CT with its table or its body alone, whichever the X-rays match better after
-   *  each one's pre-alignment (TableChoice; vtkXPStereoRegistrationFilter). false: the CT as given. */
+  /** Register the CT with its table or its body alone, whichever the X-rays' edges match better
+   *  at each one's pre-alignment (TableChoice; vtkXPStereoRegistrationFilter). false: the CT as given. */
   bool chooseTable = false;
   bool entropyMask = true;       ///< exclude low-information regions (Method.md, stage 2)
   bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
@@ -208,13 +208,15 @@ struct RegistrationStage
  * The CT's table, chosen for by the X-rays (StereoRegistrationSettings::chooseTable): a room's
  * X-rays show its couch, or nothing, and a renderer's may show the CT's own table; no single
  * choice suits all three (Algorithms.md, "The CT's table"). Both CTs, with the table and the
- * body alone (xpBodyMask.h), are pre-aligned to the X-rays, and the one whose DRRs match them
- * better is registered.
+ * body alone (xpBodyMask.h), are pre-aligned to the X-rays, and the one whose DRRs' edges match
+ * theirs better there (the refinement's high-passed objective: a couch where the CT's table was
+ * casts a like shadow, but not its edges) is registered.
  */
 struct TableChoice
 {
   double tableCM3 = 0.0; ///< the CT outside the body above BodyMaskSettings::tableHU (0: no table, nothing chosen)
-  double withTable = 0.0, bodyOnly = 0.0; ///< each CT's pre-alignment objective (when a table was found)
+  /** Each CT's high-passed objective at its own pre-alignment (PreAlignedCT; when a table was found). */
+  double withTable = 0.0, bodyOnly = 0.0;
   bool keptTable = true; ///< the DRRs were rendered from the CT with its table
 };
 
@@ -325,10 +327,17 @@ VTKXPREGISTRATION_EXPORT StereoRegistrationResult RegisterStereo(const Attenuati
 
 /**
  * The pre-alignment alone, as RegisterStereo runs it first (the schedule's first stage): where
- * it ends (about `isocenter`) and its stereo objective. Two CTs of one patient pre-aligned to the
- * same X-rays compare by that objective (StereoRegistrationSettings::chooseTable).
+ * it ends (about `isocenter`), and the refinement's objective there. Two CTs of one patient
+ * pre-aligned to the same X-rays compare by it (StereoRegistrationSettings::chooseTable).
  */
-VTKXPREGISTRATION_EXPORT PreAlignmentResult PreAlignStereo(const AttenuationVolume& volume,
+struct PreAlignedCT
+{
+  PreAlignmentResult prealignment;
+  /** The refinement's objective there (its high-pass, full size, the ROIs only): the views'
+   *  edges, without the shading a couch or table casts. */
+  double highPassedObjective = 0.0;
+};
+VTKXPREGISTRATION_EXPORT PreAlignedCT PreAlignStereo(const AttenuationVolume& volume,
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
   const StereoRegistrationSettings& settings = {});
 
