@@ -18,6 +18,7 @@
 #include <vtkStreamingDemandDrivenPipeline.h>
 
 #include <cmath>
+#include <optional>
 
 vtkStandardNewMacro(vtkXPStereoRegistrationFilter);
 
@@ -362,16 +363,16 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
       xp::TableChoice choice;
       const xp::AttenuationVolume* body = this->BodyAttenuation(ct);
       choice.tableCM3 = this->TableCM3;
+      xp::StereoRegistrationInStages withTable(volume, planned, this->Geometry.isocenter, views, this->Settings, observer);
+      choice.withTable = withTable.PreAlign().highPassedObjective;
+      std::optional<xp::StereoRegistrationInStages> bodyOnly;
       if (body)
       {
-        const xp::PreAlignedCT a = xp::PreAlignStereo(volume, planned, this->Geometry.isocenter, views, this->Settings);
-        const xp::PreAlignedCT b = xp::PreAlignStereo(*body, planned, this->Geometry.isocenter, views, this->Settings);
-        choice.withTable = a.highPassedObjective;
-        choice.bodyOnly = b.highPassedObjective;
+        bodyOnly.emplace(*body, planned, this->Geometry.isocenter, views, this->Settings, observer);
+        choice.bodyOnly = bodyOnly->PreAlign().highPassedObjective;
         choice.keptTable = choice.withTable > choice.bodyOnly;
       }
-      xp::StereoRegistrationResult result = xp::RegisterStereo(
-        choice.keptTable ? volume : *body, planned, this->Geometry.isocenter, views, this->Settings, observer);
+      xp::StereoRegistrationResult result = choice.keptTable ? withTable.Finish() : bodyOnly->Finish();
       result.table = choice;
       this->SetResult(std::move(result));
     }

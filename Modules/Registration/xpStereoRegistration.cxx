@@ -768,17 +768,25 @@ public:
     this->Result.start = requested.initialPose;
   }
 
-  /** The schedule's stages in order, up to and including the first of kind `last` (all of them
-   *  without). */
-  StereoRegistrationResult Run(std::optional<StageKind> last = std::nullopt)
+  StereoRegistrationResult Run()
+  {
+    this->RunStages();
+    return this->Finish();
+  }
+
+  /** The schedule's stages in order from the first not yet run, up to and including the next of
+   *  kind `last` (to the end without). Only the pre-alignment may end a call: the stages after
+   *  it share what they found. */
+  void RunStages(std::optional<StageKind> last = std::nullopt)
   {
     const std::vector<ScheduledStage>& stages = this->Result.schedule.stages;
     std::array<std::optional<PoseOptimizerResult>, 2> trackEnds;
     SearchEnds searchEnds;
     Refined refined;
     Clock::time_point sixDOFStart{};
-    for (size_t s = 0; s < stages.size(); ++s)
+    for (size_t s = this->NextStage; s < stages.size(); ++s)
     {
+      this->NextStage = s + 1;
       const ScheduledStage& stage = stages[s];
       this->Progress.Begin(stage.name, stage.progressFrom, stage.progressTo);
       switch (stage.kind)
@@ -865,8 +873,13 @@ public:
         }
       }
       if (last && stage.kind == *last)
-        break;
+        return;
     }
+  }
+
+  /** The result, once every stage has run. */
+  StereoRegistrationResult Finish()
+  {
     this->Trace.End();
     this->Result.objectiveTrace = std::move(this->Trace.Objective);
     this->Result.stages = std::move(this->Trace.Stages);
@@ -877,6 +890,18 @@ public:
 
   /** After the pre-alignment: the refinement's objective (its high-pass, full size, the X-rays'
    *  ROIs only) at `pose`: what the views' edges say, without the shading. */
+  /** After RunStages(StageKind::PreAlignment): where it ended (about the room's isocentre) and
+   *  the refinement's objective there. */
+  PreAlignedCT PreAligned()
+  {
+    PreAlignedCT aligned;
+    aligned.prealignment = this->Result.prealignment;
+    aligned.prealignment.pose = this->AboutIsocenter(this->Result.prealignment.pose);
+    aligned.highPassedObjective = this->HighPassedObjectiveAt(this->Result.prealignment.pose);
+    return aligned;
+  }
+
+private:
   double HighPassedObjectiveAt(const Pose& pose)
   {
     const std::unique_ptr<StereoSimilarity> similarity = this->Similarity(
@@ -884,7 +909,6 @@ public:
     return similarity->Evaluate(pose);
   }
 
-private:
   Pose AboutIsocenter(const Pose& pose) const
   {
     return Pose::FromTransform(pose.ToTransform(this->Isocenter), this->RoomIsocenter);
@@ -1292,13 +1316,12 @@ private:
   std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
   std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
   std::map<int, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor
+  size_t NextStage = 0; ///< the first stage of the schedule not yet run
 };
 
-} // namespace
-
-StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& givenViews, const StereoRegistrationSettings& requested,
-  const RegistrationObserver& observer)
+/** What RegisterStereo refuses before any work: views that do not match their panels, fewer
+ *  than two, gate limits out of range. */
+void CheckRegistrationInputs(const std::vector<RegistrationView>& givenViews, const StereoRegistrationSettings& requested)
 {
   if (givenViews.size() < 2)
   {
@@ -1313,17 +1336,44 @@ StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const E
           std::to_string(item.view.Rows()) + " panel");
   }
   ValidateGateLimits(requested);
+}
+
+} // namespace
+
+StereoRegistrationResult RegisterStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
+  const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& givenViews, const StereoRegistrationSettings& requested,
+  const RegistrationObserver& observer)
+{
+  CheckRegistrationInputs(givenViews, requested);
   return StereoRegistrationRun(volume, plannedCTToRoom, roomIsocenter, givenViews, requested, observer).Run();
 }
 
-PreAlignedCT PreAlignStereo(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
-  const Eigen::Vector3d& roomIsocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings)
+/** The run, under the name the header declares. */
+class StereoRegistrationInStages::Run : public StereoRegistrationRun
 {
-  StereoRegistrationRun run(volume, plannedCTToRoom, roomIsocenter, views, settings, {});
-  PreAlignedCT aligned;
-  aligned.prealignment = run.Run(StageKind::PreAlignment).prealignment;
-  aligned.highPassedObjective = run.HighPassedObjectiveAt(aligned.prealignment.pose);
-  return aligned;
+  using StereoRegistrationRun::StereoRegistrationRun;
+};
+
+StereoRegistrationInStages::StereoRegistrationInStages(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
+  const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings,
+  const RegistrationObserver& observer)
+{
+  CheckRegistrationInputs(views, settings);
+  this->Stages = std::make_unique<Run>(volume, plannedCTToRoom, isocenter, views, settings, observer);
+}
+
+StereoRegistrationInStages::~StereoRegistrationInStages() = default;
+
+PreAlignedCT StereoRegistrationInStages::PreAlign()
+{
+  this->Stages->RunStages(StageKind::PreAlignment);
+  return this->Stages->PreAligned();
+}
+
+StereoRegistrationResult StereoRegistrationInStages::Finish()
+{
+  this->Stages->RunStages();
+  return this->Stages->Finish();
 }
 
 } // namespace xp

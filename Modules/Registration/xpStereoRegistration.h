@@ -325,21 +325,34 @@ VTKXPREGISTRATION_EXPORT StereoRegistrationResult RegisterStereo(const Attenuati
   const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
   const StereoRegistrationSettings& settings = {}, const RegistrationObserver& observer = {});
 
-/**
- * The pre-alignment alone, as RegisterStereo runs it first (the schedule's first stage): where
- * it ends (about `isocenter`), and the refinement's objective there. Two CTs of one patient
- * pre-aligned to the same X-rays compare by it (StereoRegistrationSettings::chooseTable).
- */
+/** Where a registration's pre-alignment ended (StereoRegistrationInStages::PreAlign). */
 struct PreAlignedCT
 {
-  PreAlignmentResult prealignment;
+  PreAlignmentResult prealignment; ///< its pose about the room's isocentre
   /** The refinement's objective there (its high-pass, full size, the ROIs only): the views'
-   *  edges, without the shading a couch or table casts. */
+   *  edges, without the shading a couch or table casts. Two CTs of one patient pre-aligned to
+   *  the same X-rays compare by it (StereoRegistrationSettings::chooseTable). */
   double highPassedObjective = 0.0;
 };
-VTKXPREGISTRATION_EXPORT PreAlignedCT PreAlignStereo(const AttenuationVolume& volume,
-  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views,
-  const StereoRegistrationSettings& settings = {});
+
+/**
+ * RegisterStereo in two steps: PreAlign() runs the schedule's first stage, Finish() the rest
+ * and gives the result RegisterStereo would. Two CTs of one patient (with and without its
+ * table) are pre-aligned, and the better one finished. Throws as RegisterStereo does.
+ */
+class VTKXPREGISTRATION_EXPORT StereoRegistrationInStages
+{
+public:
+  StereoRegistrationInStages(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
+    const Eigen::Vector3d& isocenter, const std::vector<RegistrationView>& views, const StereoRegistrationSettings& settings = {},
+    const RegistrationObserver& observer = {});
+  ~StereoRegistrationInStages();
+  PreAlignedCT PreAlign();           ///< once, first
+  StereoRegistrationResult Finish(); ///< once, after PreAlign
+private:
+  class Run;
+  std::unique_ptr<Run> Stages;
+};
 
 /** Box average by an integer factor of a columns-wide image; for masks, a pixel is valid only
  *  when all it covers are. */
