@@ -289,7 +289,15 @@ const xp::AttenuationVolume* vtkXPStereoRegistrationFilter::BodyAttenuation(vtkI
   if (ct != this->BodySource || ct->GetMTime() != this->BodyTime || this->MuWater != this->BodyMuWater)
   {
     long long tableVoxels = 0;
-    const vtkSmartPointer<vtkImageData> body = xp::BodyOnly(ct, {}, nullptr, &tableVoxels);
+    vtkSmartPointer<vtkImageData> body;
+    try
+    {
+      body = xp::BodyOnly(ct, {}, nullptr, &tableVoxels);
+    }
+    catch (const xp::InputError&)
+    {
+      tableVoxels = 0; // no body to tell a table from (a CT of air, a thin shell): nothing to choose
+    }
     const double* spacing = ct->GetSpacing();
     this->TableCM3 = static_cast<double>(tableVoxels) * std::abs(spacing[0] * spacing[1] * spacing[2]) / 1000.0;
     this->BodyVolume = tableVoxels > 0 ? xp::MakeAttenuationVolume(body, this->MuWater) : nullptr;
@@ -361,8 +369,10 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
       // high-passed objective): the one whose DRRs match the X-rays better is registered
       // (xp::TableChoice); a tie keeps the body alone, which is what a room shows.
       xp::TableChoice choice;
-      const xp::AttenuationVolume* body = this->BodyAttenuation(ct);
-      choice.tableCM3 = this->TableCM3;
+      // A bone cut out of a CT has no table; its registration matches the bone's shadow alone.
+      const bool bone = this->Settings.detectBoneOnly && xp::OuterSurfaceIsBone(volume);
+      const xp::AttenuationVolume* body = bone ? nullptr : this->BodyAttenuation(ct);
+      choice.tableCM3 = body ? this->TableCM3 : 0.0;
       xp::StereoRegistrationInStages withTable(volume, planned, this->Geometry.isocenter, views, this->Settings, observer);
       choice.withTable = withTable.PreAlign().highPassedObjective;
       std::optional<xp::StereoRegistrationInStages> bodyOnly;
