@@ -403,33 +403,50 @@ TEST(PreAlignment, BringsALargeMisalignmentIntoTheFineRange)
 #include <vtkNew.h>
 #include <vtkPointData.h>
 
+namespace
+{
+
+/** `ct` as the filter's VTK input. */
+vtkSmartPointer<vtkImageData> CTImage(const xp::CTVolumeData& ct)
+{
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->SetDimensions(ct.dimensions.data());
+  image->SetSpacing(ct.spacing.data());
+  image->SetOrigin(ct.origin.data());
+  vtkNew<vtkFloatArray> hu;
+  hu->SetNumberOfValues(static_cast<vtkIdType>(ct.hounsfield.size()));
+  std::copy(ct.hounsfield.begin(), ct.hounsfield.end(), hu->GetPointer(0));
+  image->GetPointData()->SetScalars(hu);
+  return image;
+}
+
+/** A detector's rows, top first, as a VTK image (whose rows run up). */
+vtkSmartPointer<vtkImageData> XRayImage(const xp::RegistrationView& item)
+{
+  const int columns = item.view.Columns(), rows = item.view.Rows();
+  auto xray = vtkSmartPointer<vtkImageData>::New();
+  xray->SetDimensions(columns, rows, 1);
+  xray->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
+  auto* p = static_cast<uint16_t*>(xray->GetScalarPointer());
+  for (int r = 0; r < rows; ++r)
+    std::copy(item.xray.begin() + r * columns, item.xray.begin() + (r + 1) * columns, p + (rows - 1 - r) * columns);
+  return xray;
+}
+
+} // namespace
+
 TEST(vtkXPStereoRegistrationFilter, RecoversTheMisalignmentInAPipeline)
 {
   Scene scene;
   const xp::Pose truth = xp::Pose::Parse("-4,2,3,-1,1.5,-2", "truth");
   const std::vector<xp::RegistrationView> simulated = Simulate(scene, truth, 4);
-  vtkNew<vtkImageData> ct;
-  ct->SetDimensions(scene.ct.dimensions.data());
-  ct->SetSpacing(scene.ct.spacing.data());
-  ct->SetOrigin(scene.ct.origin.data());
-  vtkNew<vtkFloatArray> hu;
-  hu->SetNumberOfValues(static_cast<vtkIdType>(scene.ct.hounsfield.size()));
-  std::copy(scene.ct.hounsfield.begin(), scene.ct.hounsfield.end(), hu->GetPointer(0));
-  ct->GetPointData()->SetScalars(hu);
-
   vtkNew<vtkXPStereoRegistrationFilter> registration;
-  registration->SetCTData(ct);
+  registration->SetCTData(CTImage(scene.ct));
   xp::StereoGeometry geometry;
-  for (int v = 0; v < 2; ++v)
+  for (const xp::RegistrationView& item : simulated)
   {
-    geometry.views.push_back(simulated[v].view);
-    vtkNew<vtkImageData> xray; // VTK rows run up: detector row r goes to VTK row rows-1-r
-    xray->SetDimensions(160, 120, 1);
-    xray->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
-    auto* p = static_cast<uint16_t*>(xray->GetScalarPointer());
-    for (int r = 0; r < 120; ++r)
-      std::copy(simulated[v].xray.begin() + r * 160, simulated[v].xray.begin() + (r + 1) * 160, p + (119 - r) * 160);
-    registration->AddXRayData(xray);
+    geometry.views.push_back(item.view);
+    registration->AddXRayData(XRayImage(item));
   }
   registration->SetGeometry(geometry);
   // Progress: every stage reported, rising to 1, and every similarity evaluation heard.
@@ -1389,37 +1406,6 @@ TEST(StereoRegistrationOnGPU, FindsTheCPUsPose)
 
 } // namespace
 
-namespace
-{
-
-/** `ct` as the filter's VTK input. */
-vtkSmartPointer<vtkImageData> CTImage(const xp::CTVolumeData& ct)
-{
-  auto image = vtkSmartPointer<vtkImageData>::New();
-  image->SetDimensions(ct.dimensions.data());
-  image->SetSpacing(ct.spacing.data());
-  image->SetOrigin(ct.origin.data());
-  vtkNew<vtkFloatArray> hu;
-  hu->SetNumberOfValues(static_cast<vtkIdType>(ct.hounsfield.size()));
-  std::copy(ct.hounsfield.begin(), ct.hounsfield.end(), hu->GetPointer(0));
-  image->GetPointData()->SetScalars(hu);
-  return image;
-}
-
-/** A detector's rows, top first, as a VTK image (whose rows run up). */
-vtkSmartPointer<vtkImageData> XRayImage(const xp::RegistrationView& item)
-{
-  const int columns = item.view.Columns(), rows = item.view.Rows();
-  auto xray = vtkSmartPointer<vtkImageData>::New();
-  xray->SetDimensions(columns, rows, 1);
-  xray->AllocateScalars(VTK_UNSIGNED_SHORT, 1);
-  auto* p = static_cast<uint16_t*>(xray->GetScalarPointer());
-  for (int r = 0; r < rows; ++r)
-    std::copy(item.xray.begin() + r * columns, item.xray.begin() + (r + 1) * columns, p + (rows - 1 - r) * columns);
-  return xray;
-}
-
-} // namespace
 
 // The phantom's CT holds a head rest and a couch top; X-rays that show them (a renderer of that
 // CT) or not (a room): with chooseTable the registration renders the CT the X-rays show, and
