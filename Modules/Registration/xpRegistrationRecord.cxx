@@ -413,6 +413,8 @@ void ReadTableChoice(const Fields& f, RegistrationRecord& r)
     return;
   TableChoice& table = r.table.emplace();
   table.tableCM3 = f.Number("table.found_cm3");
+  if (!std::isfinite(table.tableCM3) || table.tableCM3 < 0.0)
+    f.Fail("table.found_cm3", "must be a number of at least 0");
   if (table.tableCM3 > 0.0)
   {
     table.withTable = f.Number("table.high_passed_objective.with_table");

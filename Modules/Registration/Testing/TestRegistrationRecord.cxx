@@ -77,6 +77,24 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_DOUBLE_EQ(read.table->withTable, 6.125) << "each CT's objective under its own name";
   EXPECT_DOUBLE_EQ(read.table->bodyOnly, 6.5);
   EXPECT_FALSE(read.table->keptTable);
+  // A table of negative volume, or rendered from something else, is a damaged record.
+  for (const auto& [from, to] : { std::make_pair("\"found_cm3\" : 1285.5", "\"found_cm3\" : -1"),
+         std::make_pair("\"rendered_from\" : \"body_only\"", "\"rendered_from\" : \"couch\"") })
+  {
+    std::string text = xp::RegistrationRecordJSON(written);
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, std::string(from).size(), to);
+    try
+    {
+      xp::ParseRegistrationRecord(text, "damaged.json");
+      ADD_FAILURE() << to << " was accepted";
+    }
+    catch (const xp::InputError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("table."), std::string::npos) << e.what();
+    }
+  }
   EXPECT_EQ(read.halvesApartMM, written.halvesApartMM) << "each view's halves under its own name";
   EXPECT_EQ(read.xrayCorrelation, written.xrayCorrelation);
   EXPECT_EQ(read.peakLeads, written.peakLeads) << "each lead under its axis and side";
