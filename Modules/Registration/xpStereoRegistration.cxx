@@ -888,8 +888,6 @@ public:
     return std::move(this->Result);
   }
 
-  /** After the pre-alignment: the refinement's objective (its high-pass, full size, the X-rays'
-   *  ROIs only) at `pose`: what the views' edges say, without the shading. */
   /** After RunStages(StageKind::PreAlignment): where it ended (about the room's isocentre) and
    *  the refinement's objective there. */
   PreAlignedCT PreAligned()
@@ -902,6 +900,8 @@ public:
   }
 
 private:
+  /** After the pre-alignment: the refinement's objective (its high-pass, full size, the X-rays'
+   *  ROIs only) at `pose`: what the views' edges say, without the shading. */
   double HighPassedObjectiveAt(const Pose& pose)
   {
     const std::unique_ptr<StereoSimilarity> similarity = this->Similarity(
