@@ -6,6 +6,7 @@
 #include <vtk_jsoncpp.h>
 
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <fstream>
 #include <memory>
@@ -102,10 +103,11 @@ Json::Value InputsValue(const RegistrationRecordInputs& in)
   return inputs;
 }
 
-/** result.json's `convergence.stages`, `prealignment_2d` and `schedule`. */
-void WriteConvergence(const RegistrationRecord& r, Json::Value& root)
+/** result.json's `convergence`: each stage's span of the objective's trace, and the trace. */
+Json::Value ConvergenceValue(const RegistrationRecord& r)
 {
-  Json::Value& stages = root["convergence"]["stages"] = Json::Value(Json::arrayValue);
+  Json::Value convergence(Json::objectValue);
+  Json::Value& stages = convergence["stages"] = Json::Value(Json::arrayValue);
   for (const RegistrationStage& stage : r.stages)
   {
     Json::Value item(Json::objectValue);
@@ -116,10 +118,15 @@ void WriteConvergence(const RegistrationRecord& r, Json::Value& root)
     item["seconds"] = stage.seconds;
     stages.append(item);
   }
-  root["prealignment_2d"]["iterations"] = r.prealignIterations;
-  root["prealignment_2d"]["drrs"] = static_cast<Json::Int64>(r.prealignDRRs);
-  Json::Value& schedule = root["schedule"] = Json::Value(Json::arrayValue);
-  for (const ScheduledStage& stage : r.schedule.stages)
+  convergence["objective"] = List(r.objectiveTrace);
+  return convergence;
+}
+
+/** result.json's `schedule`: the stages as scheduled, with each search's optimiser. */
+Json::Value ScheduleValue(const RegistrationSchedule& s)
+{
+  Json::Value schedule(Json::arrayValue);
+  for (const ScheduledStage& stage : s.stages)
   {
     Json::Value item(Json::objectValue);
     item["kind"] = StageKindName(stage.kind);
@@ -145,6 +152,7 @@ void WriteConvergence(const RegistrationRecord& r, Json::Value& root)
       item["rounds"] = stage.rounds;
     schedule.append(item);
   }
+  return schedule;
 }
 
 /** A parsed record with errors that name the file and the field. */
@@ -328,7 +336,7 @@ RegistrationRecordInputs InputsAt(const Fields& f, const Json::Value& inputs)
   return in;
 }
 
-/** result.json's `convergence.stages`, `prealignment_2d` and `schedule` into `r`. */
+/** result.json's `convergence`: each stage's span of the trace, and the trace. */
 void ReadConvergence(const Fields& f, RegistrationRecord& r)
 {
   for (const Json::Value& stage : f.Array("convergence.stages"))
@@ -341,92 +349,46 @@ void ReadConvergence(const Fields& f, RegistrationRecord& r)
     read.imageDivisor = stage["image_divisor"].isInt() ? stage["image_divisor"].asInt() : 0;
     r.stages.push_back(read);
   }
-  if (f.Has("prealignment_2d")) // absent in records written before the schedule
-  {
-    r.prealignIterations = static_cast<int>(f.Number("prealignment_2d.iterations"));
-    r.prealignDRRs = static_cast<long long>(f.Number("prealignment_2d.drrs"));
-  }
-  if (f.Has("schedule"))
-    for (const Json::Value& item : f.Array("schedule"))
-    {
-      ScheduledStage stage;
-      bool known = false;
-      for (StageKind kind : { StageKind::PreAlignment, StageKind::Masks, StageKind::Search, StageKind::Refinement,
-             StageKind::Polish, StageKind::Restarts, StageKind::Landscape, StageKind::Gate })
-        if (item.isObject() && item["kind"].isString() && item["kind"].asString() == StageKindName(kind))
-          stage.kind = kind, known = true;
-      if (!known || !item["name"].isString() || !item["image_divisor"].isInt())
-        f.Fail("schedule", "must list {kind (a stage kind), name, image_divisor, ...}");
-      stage.name = item["name"].asString();
-      stage.imageDivisor = item["image_divisor"].asInt();
-      stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
-      stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
-      stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;
-      const Json::Value& o = item["optimizer"];
-      if (o.isObject())
-      {
-        if (!o["method"].isString() || !o["step_mm"].isNumeric() || !o["step_deg"].isNumeric() || !o["tolerance_mm"].isNumeric() ||
-          !o["tolerance_deg"].isNumeric() || !o["max_evaluations"].isInt() || !o["restarts"].isInt())
-          f.Fail("schedule", "an optimizer must hold method, step_mm, step_deg, tolerance_mm, tolerance_deg, max_evaluations, restarts");
-        stage.optimizer.method = ParsePoseOptimizerMethod(o["method"].asString(), "schedule.optimizer.method");
-        stage.optimizer.initialStepMM = o["step_mm"].asDouble();
-        stage.optimizer.initialStepDegrees = o["step_deg"].asDouble();
-        stage.optimizer.toleranceMM = o["tolerance_mm"].asDouble();
-        stage.optimizer.toleranceDegrees = o["tolerance_deg"].asDouble();
-        stage.optimizer.maxEvaluations = o["max_evaluations"].asInt();
-        stage.optimizer.maxRestarts = o["restarts"].asInt();
-      }
-      r.schedule.stages.push_back(stage);
-    }
+  r.objectiveTrace = f.Numbers("convergence.objective");
 }
 
-/** The gate's own figures: each view's halves and polarity, the held-out leads, the bones'
- *  restarts; absent from records written before each, where `r` keeps its defaults. */
-void ReadGateFigures(const Fields& f, RegistrationRecord& r)
+/** result.json's `schedule`: the stages as scheduled. */
+void ReadSchedule(const Fields& f, RegistrationRecord& r)
 {
-  if (f.Has("halves_apart_mm") && !f.At("halves_apart_mm").empty()) // empty where no halves were measured
-    r.halvesApartMM = f.PerViewNumbers("halves_apart_mm", r.viewNames);
-  if (f.Has("held_out_leads"))
-    for (int a = 0; a < 6; ++a)
+  for (const Json::Value& item : f.Array("schedule"))
+  {
+    ScheduledStage stage;
+    bool known = false;
+    for (StageKind kind : { StageKind::PreAlignment, StageKind::Masks, StageKind::Search, StageKind::Refinement,
+           StageKind::Polish, StageKind::Restarts, StageKind::Landscape, StageKind::Gate })
+      if (item.isObject() && item["kind"].isString() && item["kind"].asString() == StageKindName(kind))
+        stage.kind = kind, known = true;
+    if (!known || !item["name"].isString() || !item["image_divisor"].isInt())
+      f.Fail("schedule", "must list {kind (a stage kind), name, image_divisor, ...}");
+    stage.name = item["name"].asString();
+    stage.imageDivisor = item["image_divisor"].asInt();
+    stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
+    stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
+    stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;
+    const Json::Value& o = item["optimizer"];
+    if (o.isObject())
     {
-      const std::string at = std::string("held_out_leads.") + axes[a];
-      const std::vector<double> leads = f.Numbers(at);
-      if (leads.size() != 2)
-        f.Fail(at, "must hold 2 numbers (the neighbours at -step and +step)");
-      r.peakLeads[2 * a] = leads[0];
-      r.peakLeads[2 * a + 1] = leads[1];
+      if (!o["method"].isString() || !o["step_mm"].isNumeric() || !o["step_deg"].isNumeric() || !o["tolerance_mm"].isNumeric() ||
+        !o["tolerance_deg"].isNumeric() || !o["max_evaluations"].isInt() || !o["restarts"].isInt())
+        f.Fail("schedule", "an optimizer must hold method, step_mm, step_deg, tolerance_mm, tolerance_deg, max_evaluations, restarts");
+      stage.optimizer.method = ParsePoseOptimizerMethod(o["method"].asString(), "schedule.optimizer.method");
+      stage.optimizer.initialStepMM = o["step_mm"].asDouble();
+      stage.optimizer.initialStepDegrees = o["step_deg"].asDouble();
+      stage.optimizer.toleranceMM = o["tolerance_mm"].asDouble();
+      stage.optimizer.toleranceDegrees = o["tolerance_deg"].asDouble();
+      stage.optimizer.maxEvaluations = o["max_evaluations"].asInt();
+      stage.optimizer.maxRestarts = o["restarts"].asInt();
     }
-  if (f.Has("xray_polarity"))
-    for (const std::string& name : r.viewNames)
-      r.xrayCorrelation.push_back(f.Number("xray_polarity." + name + ".correlation_with_drr"));
-  if (f.Has("restarts_apart"))
-  {
-    r.restartsApartMM = f.Number("restarts_apart.mm");
-    r.restartsApartDegrees = f.Number("restarts_apart.degrees");
+    r.schedule.stages.push_back(stage);
   }
 }
 
-/** result.json's `table`: what the X-rays chose, where they were asked (absent otherwise). */
-void ReadTableChoice(const Fields& f, RegistrationRecord& r)
-{
-  if (!f.Has("table"))
-    return;
-  TableChoice& table = r.table.emplace();
-  table.tableCM3 = f.Number("table.found_cm3");
-  if (!std::isfinite(table.tableCM3) || table.tableCM3 < 0.0)
-    f.Fail("table.found_cm3", "must be a number of at least 0");
-  if (table.tableCM3 > 0.0)
-  {
-    table.withTable = f.Number("table.high_passed_objective.with_table");
-    table.bodyOnly = f.Number("table.high_passed_objective.body_only");
-  }
-  const std::string from = f.Text("table.rendered_from");
-  if (from != "ct" && from != "body_only")
-    f.Fail("table.rendered_from", "must be \"ct\" or \"body_only\"");
-  table.keptTable = from == "ct";
-}
-
-/** result.json's `volume_to_room` and `volume_center` into `r`. */
+/** result.json's `volume_to_room` into `r`. */
 void ReadPlacement(const Fields& f, RegistrationRecord& r)
 {
   const Json::Value& rows = f.Array("volume_to_room");
@@ -449,10 +411,7 @@ void ReadPlacement(const Fields& f, RegistrationRecord& r)
   Eigen::Isometry3d placed = Eigen::Isometry3d::Identity();
   placed.matrix() = m;
   r.volumeToRoom = placed;
-  const std::vector<double> center = f.Numbers("volume_center");
-  if (center.size() != 3)
-    f.Fail("volume_center", "must hold 3 numbers");
-  r.volumeCenter = Eigen::Vector3d(center[0], center[1], center[2]);
+  f.At("volume_center"); // the two are written together
 }
 
 GateCode CodeNamed(const std::string& name, const Fields& fields)
@@ -468,7 +427,416 @@ GateCode CodeNamed(const std::string& name, const Fields& fields)
   fields.Fail("failures", "holds an unknown code '" + name + "'");
 }
 
+
+/** One row of the schema: the field, and how it is written and read back. */
+struct FieldCodec
+{
+  RegistrationRecordField field;
+  std::function<bool(const RegistrationRecord&)> written; ///< empty: always
+  std::function<Json::Value(const RegistrationRecord&)> write;
+  std::function<void(const Fields&, RegistrationRecord&)> read; ///< empty: derived from other fields
+};
+
+/** Whether a per-view field has a value for at least one named view. */
+template <typename T>
+bool AnyPerView(const RegistrationRecord& r, const std::vector<T>& values)
+{
+  return !r.viewNames.empty() && !values.empty();
+}
+
+/**
+ * result.json, field by field, in the order the reader takes them (the status and the views' names
+ * before what depends on them). A row says what the field is, when it is written, whether a record
+ * without it is refused, and how it is written and read; RegistrationRecordJSON and
+ * ParseRegistrationRecord only walk this table.
+ */
+const std::vector<FieldCodec>& Codecs()
+{
+  using R = RegistrationRecord;
+  static const std::vector<FieldCodec> codecs{
+    { { "status", "text", "", "ok: the couch may be moved by the answer; failed: it may not", "always", true },
+      {}, [](const R& r) { return Json::Value(r.ok ? "ok" : "failed"); },
+      [](const Fields& f, R& r)
+      {
+        const std::string status = f.Text("status");
+        if (status != "ok" && status != "failed")
+          f.Fail("status", "must be \"ok\" or \"failed\"");
+        r.ok = status == "ok";
+      } },
+    { { "misalignment", "pose", "mm, deg", "where the patient is, in room terms", "always", true },
+      {}, [](const R& r) { return PoseValue(r.misalignment); },
+      [](const Fields& f, R& r) { r.misalignment = f.PoseAt("misalignment"); } },
+    { { "correction", "pose", "mm, deg", "the 6-DOF correction: the misalignment's inverse", "always", true },
+      {}, [](const R& r) { return PoseValue(r.correction); }, [](const Fields& f, R& r) { r.correction = f.PoseAt("correction"); } },
+    { { "views", "list of text", "", "the views' names, in order; per-view fields are keyed by them", "always", true },
+      {}, [](const R& r) { return List(r.viewNames); }, [](const Fields& f, R& r) { r.viewNames = f.Texts("views"); } },
+    { { "convention", "text", "", "the formula of the poses (CorrectionConvention)", "always", false, false },
+      {}, [](const R&) { return Json::Value(CorrectionConvention); }, {} },
+    { { "initial_pose", "pose", "mm, deg", "where the search started", "always" },
+      {}, [](const R& r) { return PoseValue(r.initialPose); },
+      [](const Fields& f, R& r) { r.initialPose = f.PoseAt("initial_pose"); } },
+    { { "uncertainty", "per axis", "mm, deg", "how far the similarity stays within 5 % of its peak; null: no maximum", "always" },
+      {},
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        for (int a = 0; a < 6; ++a)
+          value[axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        for (int a = 0; a < 6; ++a)
+        {
+          const std::string at = std::string("uncertainty.") + axes[a];
+          r.uncertainty[a] = f.At(at).isNull() ? std::numeric_limits<double>::infinity() : f.Number(at);
+        }
+      } },
+    { { "similarity", "per view", "", "each view's MI at the result, and `objective` (the sum of squares)", "always", true },
+      {},
+      [](const R& r)
+      {
+        Json::Value value = PerView(r.viewNames, r.similarity);
+        value["objective"] = r.objective;
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        r.similarity = f.PerViewNumbers("similarity", r.viewNames);
+        r.objective = f.Number("similarity.objective");
+      } },
+    { { "explained_information", "per view", "", "MI / H(X-ray) at the result", "always", true },
+      {}, [](const R& r) { return PerView(r.viewNames, r.explained); },
+      [](const Fields& f, R& r) { r.explained = f.PerViewNumbers("explained_information", r.viewNames); } },
+    { { "uncovered_fraction", "per view", "", "the valid pixels' share showing attenuation no ray of the CT meets", "always", true },
+      {}, [](const R& r) { return PerView(r.viewNames, r.uncovered); },
+      [](const Fields& f, R& r) { r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames); } },
+    { { "view_residual_mm", "per view", "mm", "how far the view's own 2D registration still moves the DRR", "always", true },
+      {}, [](const R& r) { return PerView(r.viewNames, r.viewResidualMM); },
+      [](const Fields& f, R& r) { r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames); } },
+    { { "mask_valid_fraction", "per view", "", "the pixels' share the masks keep", "always", true },
+      {}, [](const R& r) { return PerView(r.viewNames, r.validFraction); },
+      [](const Fields& f, R& r) { r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames); } },
+    { { "xray_smoothing_px", "per view", "px", "the Gaussian sd each X-ray was smoothed by", "where smoothed" },
+      [](const R& r) { return !r.xraySmoothingPixels.empty(); }, [](const R& r) { return PerView(r.viewNames, r.xraySmoothingPixels); },
+      [](const Fields& f, R& r) { r.xraySmoothingPixels = f.PerViewNumbers("xray_smoothing_px", r.viewNames); } },
+    { { "ct_end_faces", "per view", "", "anatomy beyond each end slice of the CT, and whether those rays were left out",
+        "with the coverage mask" },
+      [](const R& r) { return AnyPerView(r, r.endFaces); },
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        for (size_t v = 0; v < r.viewNames.size() && v < r.endFaces.size(); ++v)
+        {
+          Json::Value& faces = value[r.viewNames[v]];
+          faces["excess_first_slice"] = r.endFaces[v].excess[0];
+          faces["excess_last_slice"] = r.endFaces[v].excess[1];
+          faces["left_out_first_slice"] = (r.endFaces[v].facesToLeaveOut & FirstSliceFace) != 0;
+          faces["left_out_last_slice"] = (r.endFaces[v].facesToLeaveOut & LastSliceFace) != 0;
+        }
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        for (const std::string& name : r.viewNames)
+        {
+          const std::string at = "ct_end_faces." + name + ".";
+          EndFaceEvidence faces;
+          faces.excess[0] = f.Number(at + "excess_first_slice");
+          faces.excess[1] = f.Number(at + "excess_last_slice");
+          faces.facesToLeaveOut = static_cast<uint8_t>((f.Bool(at + "left_out_first_slice") ? FirstSliceFace : 0) |
+            (f.Bool(at + "left_out_last_slice") ? LastSliceFace : 0));
+          r.endFaces.push_back(faces);
+        }
+      } },
+    { { "drr_count", "integer", "", "DRR pairs rendered", "always", true },
+      {}, [](const R& r) { return Json::Value(static_cast<Json::Int64>(r.drrCount)); },
+      [](const Fields& f, R& r) { r.drrCount = static_cast<long long>(f.Number("drr_count")); } },
+    { { "device", "text", "", "where the rays were cast: cpu, or cuda (the GPU's name)", "always" },
+      {}, [](const R& r) { return Json::Value(r.device); }, [](const Fields& f, R& r) { r.device = f.Text("device"); } },
+    { { "render_strides", "object", "px", "rays cast on every n-th pixel of rows and columns, `search` and `fine`", "always" },
+      {},
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        for (const auto& [name, stride] : { std::make_pair("search", r.searchRenderStride), std::make_pair("fine", r.fineRenderStride) })
+        {
+          value[name]["columns"] = stride.columns;
+          value[name]["rows"] = stride.rows;
+        }
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        // A stride the registration could not have used (SetRenderStride takes 1 to 8) marks a damaged record.
+        const auto step = [&f](const std::string& at)
+        {
+          const double value = f.Number(at);
+          if (value != std::floor(value) || value < 1 || value > 8)
+            f.Fail(at, "must be a whole number from 1 to 8");
+          return static_cast<int>(value);
+        };
+        const auto read = [&f, &step](const std::string& at)
+        {
+          if (f.At(at).isNumeric()) // one number for both axes before the strides per axis
+            return RenderStride{ step(at), step(at) };
+          return RenderStride{ step(at + ".columns"), step(at + ".rows") };
+        };
+        r.searchRenderStride = read("render_strides.search");
+        r.fineRenderStride = read("render_strides.fine");
+      } },
+    { { "evaluations", "integer", "", "stereo similarity evaluations at every size, the landscape's and the gate's included", "always",
+        true },
+      {}, [](const R& r) { return Json::Value(r.evaluations); },
+      [](const Fields& f, R& r) { r.evaluations = static_cast<int>(f.Number("evaluations")); } },
+    { { "timing_s", "object", "s", "`read`, `prealign`, `mask`, `fine`, `total`", "always", true },
+      {},
+      [](const R& r)
+      {
+        Json::Value timing(Json::objectValue);
+        timing["read"] = r.readSeconds;
+        timing["prealign"] = r.prealignSeconds;
+        timing["mask"] = r.maskSeconds;
+        timing["fine"] = r.fineSeconds;
+        timing["total"] = r.totalSeconds;
+        return timing;
+      },
+      [](const Fields& f, R& r)
+      {
+        r.readSeconds = f.Number("timing_s.read");
+        r.prealignSeconds = f.Number("timing_s.prealign");
+        r.maskSeconds = f.Number("timing_s.mask");
+        r.fineSeconds = f.Number("timing_s.fine");
+        r.totalSeconds = f.Number("timing_s.total");
+      } },
+    { { "search_disagreement", "object", "mm, deg", "how far apart the two searches ended, and their objectives' ratio", "always",
+        true },
+      {},
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        value["mm"] = r.searchApartMM;
+        value["degrees"] = r.searchApartDegrees;
+        value["objective_ratio"] = r.searchObjectiveRatio;
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        r.searchApartMM = f.Number("search_disagreement.mm");
+        r.searchApartDegrees = f.Number("search_disagreement.degrees");
+        r.searchObjectiveRatio = f.Number("search_disagreement.objective_ratio");
+      } },
+    { { "peak_margin", "number", "", "the result's least lead over its held-out neighbours", "always" },
+      {}, [](const R& r) { return Json::Value(r.peakMargin); }, [](const Fields& f, R& r) { r.peakMargin = f.Number("peak_margin"); } },
+    { { "held_out_leads", "per axis", "", "each held-out neighbour's lead, [at -step, at +step]", "always" },
+      {},
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        for (int a = 0; a < 6; ++a)
+        {
+          value[axes[a]].append(r.peakLeads[2 * a]);
+          value[axes[a]].append(r.peakLeads[2 * a + 1]);
+        }
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        for (int a = 0; a < 6; ++a)
+        {
+          const std::string at = std::string("held_out_leads.") + axes[a];
+          const std::vector<double> leads = f.Numbers(at);
+          if (leads.size() != 2)
+            f.Fail(at, "must hold 2 numbers (the neighbours at -step and +step)");
+          r.peakLeads[2 * a] = leads[0];
+          r.peakLeads[2 * a + 1] = leads[1];
+        }
+      } },
+    { { "halves_apart_mm", "per view", "mm", "how far apart each view's two halves register (empty: not measured)", "always" },
+      {}, [](const R& r) { return PerView(r.viewNames, r.halvesApartMM); },
+      [](const Fields& f, R& r)
+      {
+        if (!f.At("halves_apart_mm").empty())
+          r.halvesApartMM = f.PerViewNumbers("halves_apart_mm", r.viewNames);
+      } },
+    { { "xray_polarity", "per view", "", "whether bright meant attenuation or transmission, and the correlation that decided it",
+        "where measured" },
+      [](const R& r) { return AnyPerView(r, r.xrayCorrelation); },
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        for (size_t v = 0; v < r.viewNames.size() && v < r.xrayCorrelation.size(); ++v)
+        {
+          value[r.viewNames[v]]["bright_means"] = r.xrayCorrelation[v] < 0.0 ? "attenuation" : "transmission";
+          value[r.viewNames[v]]["correlation_with_drr"] = r.xrayCorrelation[v];
+        }
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        for (const std::string& name : r.viewNames)
+          r.xrayCorrelation.push_back(f.Number("xray_polarity." + name + ".correlation_with_drr"));
+      } },
+    // The median distance (mm at the isocentre) from the DRR's edges at the result to the X-ray's,
+    // and with the DRR moved 3 mm: what the X-ray's edges alone would give (-1: no edges).
+    { { "edge_distance_mm", "per view", "mm", "the median distance from the DRR's edges to the X-ray's nearest edge", "where measured" },
+      [](const R& r) { return !r.edgeDistanceMM.empty(); }, [](const R& r) { return PerView(r.viewNames, r.edgeDistanceMM); },
+      [](const Fields& f, R& r) { r.edgeDistanceMM = f.PerViewNumbers("edge_distance_mm", r.viewNames); } },
+    { { "edge_distance_moved_3mm", "per view", "mm", "the same with the DRR moved 3 mm (chance)", "with edge_distance_mm" },
+      [](const R& r) { return !r.edgeDistanceMM.empty(); }, [](const R& r) { return PerView(r.viewNames, r.edgeDistanceShiftedMM); },
+      [](const Fields& f, R& r) { r.edgeDistanceShiftedMM = f.PerViewNumbers("edge_distance_moved_3mm", r.viewNames); } },
+    { { "volume_to_room", "4x4 matrix", "mm", "the volume's own coordinates to room mm at the result, by rows",
+        "when a command wrote it" },
+      [](const R& r) { return r.volumeToRoom.has_value(); },
+      [](const R& r)
+      {
+        Json::Value rows(Json::arrayValue);
+        for (int row = 0; row < 4; ++row)
+        {
+          Json::Value line(Json::arrayValue);
+          for (int column = 0; column < 4; ++column)
+            line.append(r.volumeToRoom->matrix()(row, column));
+          rows.append(line);
+        }
+        return rows;
+      },
+      ReadPlacement },
+    { { "volume_center", "point", "mm", "the volume's centre in its own coordinates", "with volume_to_room" },
+      [](const R& r) { return r.volumeToRoom.has_value(); }, [](const R& r) { return PointValue(r.volumeCenter); },
+      [](const Fields& f, R& r)
+      {
+        const std::vector<double> center = f.Numbers("volume_center");
+        if (center.size() != 3)
+          f.Fail("volume_center", "must hold 3 numbers");
+        r.volumeCenter = Eigen::Vector3d(center[0], center[1], center[2]);
+      } },
+    { { "restarts_apart", "object", "mm, deg", "bones: the farthest of the restarted refinements from the result", "bones only" },
+      [](const R& r) { return r.restartsApartMM >= 0.0; },
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        value["mm"] = r.restartsApartMM;
+        value["degrees"] = r.restartsApartDegrees;
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        r.restartsApartMM = f.Number("restarts_apart.mm");
+        r.restartsApartDegrees = f.Number("restarts_apart.degrees");
+      } },
+    { { "bone_only", "bool", "", "whether the volume was matched as a bone cut out of a CT", "always" },
+      {}, [](const R& r) { return Json::Value(r.boneOnly); }, [](const Fields& f, R& r) { r.boneOnly = f.Bool("bone_only"); } },
+    { { "table", "object", "cm3", "the CT's table found, each CT's high-passed objective, and which was rendered",
+        "where the X-rays chose the table" },
+      [](const R& r) { return r.table.has_value(); },
+      [](const R& r)
+      {
+        Json::Value table(Json::objectValue);
+        table["found_cm3"] = r.table->tableCM3;
+        if (r.table->tableCM3 > 0.0)
+        {
+          table["high_passed_objective"]["with_table"] = r.table->withTable;
+          table["high_passed_objective"]["body_only"] = r.table->bodyOnly;
+        }
+        table["rendered_from"] = r.table->keptTable ? "ct" : "body_only";
+        return table;
+      },
+      [](const Fields& f, R& r)
+      {
+        TableChoice& table = r.table.emplace();
+        table.tableCM3 = f.Number("table.found_cm3");
+        if (!std::isfinite(table.tableCM3) || table.tableCM3 < 0.0)
+          f.Fail("table.found_cm3", "must be a number of at least 0");
+        if (table.tableCM3 > 0.0)
+        {
+          table.withTable = f.Number("table.high_passed_objective.with_table");
+          table.bodyOnly = f.Number("table.high_passed_objective.body_only");
+        }
+        const std::string from = f.Text("table.rendered_from");
+        if (from != "ct" && from != "body_only")
+          f.Fail("table.rendered_from", "must be \"ct\" or \"body_only\"");
+        table.keptTable = from == "ct";
+      } },
+    { { "failures", "list", "", "why the gate failed: each {code, view, message}; empty exactly when ok", "always", true },
+      {},
+      [](const R& r)
+      {
+        Json::Value failures(Json::arrayValue);
+        for (const GateFailure& failure : r.failures)
+        {
+          Json::Value item(Json::objectValue);
+          item["code"] = GateCodeName(failure.code);
+          item["view"] = failure.view >= 0 && failure.view < static_cast<int>(r.viewNames.size())
+            ? Json::Value(r.viewNames[failure.view])
+            : Json::Value(Json::nullValue);
+          item["message"] = failure.message;
+          failures.append(item);
+        }
+        return failures;
+      },
+      [](const Fields& f, R& r)
+      {
+        for (const Json::Value& item : f.Array("failures"))
+        {
+          if (!item.isObject() || !item["code"].isString() || !item["message"].isString())
+            f.Fail("failures", "must list {code, view, message}");
+          int view = -1;
+          for (size_t v = 0; item["view"].isString() && v < r.viewNames.size(); ++v)
+            view = r.viewNames[v] == item["view"].asString() ? static_cast<int>(v) : view;
+          r.failures.push_back({ CodeNamed(item["code"].asString(), f), view, item["message"].asString() });
+        }
+        if (r.ok != r.failures.empty())
+          f.Fail("failures", "must be empty exactly when status is ok");
+      } },
+    { { "reasons", "list of text", "", "the failures' messages alone", "always", false, false },
+      {}, [](const R& r) { return List(r.Reasons()); }, {} },
+    { { "couch", "object", "mm, deg", "the couch motion that carries out the correction as far as the couch can, and its action",
+        "ok results" },
+      [](const R& r) { return r.couch.has_value(); }, [](const R& r) { return CouchValue(*r.couch, r.actionLevels, r.targetInCT); },
+      [](const Fields& f, R& r)
+      {
+        if (!r.ok)
+          f.Fail("couch", "is given only for an ok result");
+        r.couch = CouchAt(f, r.targetInCT, r.actionLevels);
+      } },
+    { { "inputs", "object", "", "the files and options a command registered, and each X-ray's MD5", "when a command wrote it" },
+      [](const R& r) { return r.inputs.has_value(); }, [](const R& r) { return InputsValue(*r.inputs); },
+      [](const Fields& f, R& r) { r.inputs = InputsAt(f, f.At("inputs")); } },
+    { { "convergence", "object", "s", "the objective at every evaluation, and each stage's span of it", "always", true },
+      {}, ConvergenceValue, ReadConvergence },
+    { { "prealignment_2d", "object", "", "the pre-alignment's `iterations` and the `drrs` it rendered", "always" },
+      {},
+      [](const R& r)
+      {
+        Json::Value value(Json::objectValue);
+        value["iterations"] = r.prealignIterations;
+        value["drrs"] = static_cast<Json::Int64>(r.prealignDRRs);
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        r.prealignIterations = static_cast<int>(f.Number("prealignment_2d.iterations"));
+        r.prealignDRRs = static_cast<long long>(f.Number("prealignment_2d.drrs"));
+      } },
+    { { "schedule", "list", "", "the stages as scheduled, in order, each with its optimiser's budget", "always" },
+      {}, [](const R& r) { return ScheduleValue(r.schedule); }, ReadSchedule },
+  };
+  return codecs;
+}
+
 } // namespace
+
+const std::vector<RegistrationRecordField>& RegistrationRecordSchema()
+{
+  static const std::vector<RegistrationRecordField> schema = []
+  {
+    std::vector<RegistrationRecordField> fields;
+    for (const FieldCodec& codec : Codecs())
+      fields.push_back(codec.field);
+    return fields;
+  }();
+  return schema;
+}
 
 std::vector<std::string> RegistrationRecord::Reasons() const
 {
@@ -525,118 +893,9 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
 std::string RegistrationRecordJSON(const RegistrationRecord& r)
 {
   Json::Value root(Json::objectValue);
-  root["status"] = r.ok ? "ok" : "failed";
-  root["misalignment"] = PoseValue(r.misalignment);
-  root["correction"] = PoseValue(r.correction);
-  if (r.couch)
-    root["couch"] = CouchValue(*r.couch, r.actionLevels, r.targetInCT);
-  root["initial_pose"] = PoseValue(r.initialPose);
-  root["bone_only"] = r.boneOnly;
-  if (r.table)
-  {
-    Json::Value& table = root["table"];
-    table["found_cm3"] = r.table->tableCM3;
-    if (r.table->tableCM3 > 0.0)
-    {
-      table["high_passed_objective"]["with_table"] = r.table->withTable;
-      table["high_passed_objective"]["body_only"] = r.table->bodyOnly;
-    }
-    table["rendered_from"] = r.table->keptTable ? "ct" : "body_only";
-  }
-  if (r.restartsApartMM >= 0.0)
-  {
-    root["restarts_apart"]["mm"] = r.restartsApartMM;
-    root["restarts_apart"]["degrees"] = r.restartsApartDegrees;
-  }
-  root["convention"] = CorrectionConvention;
-  root["views"] = List(r.viewNames);
-  root["similarity"] = PerView(r.viewNames, r.similarity);
-  root["similarity"]["objective"] = r.objective;
-  root["explained_information"] = PerView(r.viewNames, r.explained);
-  root["uncovered_fraction"] = PerView(r.viewNames, r.uncovered);
-  root["view_residual_mm"] = PerView(r.viewNames, r.viewResidualMM);
-  root["mask_valid_fraction"] = PerView(r.viewNames, r.validFraction);
-  if (!r.xraySmoothingPixels.empty())
-    root["xray_smoothing_px"] = PerView(r.viewNames, r.xraySmoothingPixels);
-  for (size_t v = 0; v < r.viewNames.size() && v < r.endFaces.size(); ++v)
-  {
-    Json::Value& faces = root["ct_end_faces"][r.viewNames[v]];
-    faces["excess_first_slice"] = r.endFaces[v].excess[0];
-    faces["excess_last_slice"] = r.endFaces[v].excess[1];
-    faces["left_out_first_slice"] = (r.endFaces[v].facesToLeaveOut & FirstSliceFace) != 0;
-    faces["left_out_last_slice"] = (r.endFaces[v].facesToLeaveOut & LastSliceFace) != 0;
-  }
-  root["drr_count"] = static_cast<Json::Int64>(r.drrCount);
-  root["device"] = r.device;
-  for (const auto& [name, stride] : { std::make_pair("search", r.searchRenderStride), std::make_pair("fine", r.fineRenderStride) })
-  {
-    root["render_strides"][name]["columns"] = stride.columns;
-    root["render_strides"][name]["rows"] = stride.rows;
-  }
-  root["evaluations"] = r.evaluations;
-  Json::Value& timing = root["timing_s"];
-  timing["read"] = r.readSeconds;
-  timing["prealign"] = r.prealignSeconds;
-  timing["mask"] = r.maskSeconds;
-  timing["fine"] = r.fineSeconds;
-  timing["total"] = r.totalSeconds;
-  root["search_disagreement"]["mm"] = r.searchApartMM;
-  root["search_disagreement"]["degrees"] = r.searchApartDegrees;
-  root["search_disagreement"]["objective_ratio"] = r.searchObjectiveRatio;
-  // Per axis: the distance over which the similarity falls by 5 % of its value at the result
-  // (null: no maximum along that axis); and the result's least lead over its held-out neighbours.
-  for (int a = 0; a < 6; ++a)
-    root["uncertainty"][axes[a]] = std::isfinite(r.uncertainty[a]) ? Json::Value(r.uncertainty[a]) : Json::Value(Json::nullValue);
-  root["peak_margin"] = r.peakMargin;
-  // Each held-out neighbour's lead, per axis [at -step, at +step].
-  for (int a = 0; a < 6; ++a)
-  {
-    root["held_out_leads"][axes[a]].append(r.peakLeads[2 * a]);
-    root["held_out_leads"][axes[a]].append(r.peakLeads[2 * a + 1]);
-  }
-  root["halves_apart_mm"] = PerView(r.viewNames, r.halvesApartMM);
-  if (r.volumeToRoom)
-  {
-    // Rows of the 4x4 matrix from the volume's coordinates to Room mm at the result.
-    for (int row = 0; row < 4; ++row)
-    {
-      Json::Value line(Json::arrayValue);
-      for (int column = 0; column < 4; ++column)
-        line.append(r.volumeToRoom->matrix()(row, column));
-      root["volume_to_room"].append(line);
-    }
-    for (int k = 0; k < 3; ++k)
-      root["volume_center"].append(r.volumeCenter[k]);
-  }
-  // The median distance (mm at the isocentre) from the DRR's edges at the result to the X-ray's,
-  // and with the DRR moved 3 mm: what the X-ray's edges alone would give (-1: no edges).
-  if (!r.edgeDistanceMM.empty())
-  {
-    root["edge_distance_mm"] = PerView(r.viewNames, r.edgeDistanceMM);
-    root["edge_distance_moved_3mm"] = PerView(r.viewNames, r.edgeDistanceShiftedMM);
-  }
-  // How each X-ray's grey levels were read: bright = transmission (raw) or attenuation (log),
-  // from the sign of its correlation with the DRR at the start pose.
-  for (size_t v = 0; v < r.viewNames.size() && v < r.xrayCorrelation.size(); ++v)
-  {
-    root["xray_polarity"][r.viewNames[v]]["bright_means"] = r.xrayCorrelation[v] < 0.0 ? "attenuation" : "transmission";
-    root["xray_polarity"][r.viewNames[v]]["correlation_with_drr"] = r.xrayCorrelation[v];
-  }
-  root["reasons"] = List(r.Reasons());
-  Json::Value& failures = root["failures"] = Json::Value(Json::arrayValue);
-  for (const GateFailure& failure : r.failures)
-  {
-    Json::Value item(Json::objectValue);
-    item["code"] = GateCodeName(failure.code);
-    item["view"] = failure.view >= 0 && failure.view < static_cast<int>(r.viewNames.size()) ? Json::Value(r.viewNames[failure.view])
-                                                                                              : Json::Value(Json::nullValue);
-    item["message"] = failure.message;
-    failures.append(item);
-  }
-  if (r.inputs)
-    root["inputs"] = InputsValue(*r.inputs);
-  WriteConvergence(r, root);
-  root["convergence"]["objective"] = List(r.objectiveTrace);
+  for (const FieldCodec& codec : Codecs())
+    if (!codec.written || codec.written(r))
+      root[codec.field.name] = codec.write(r);
   Json::StreamWriterBuilder builder;
   builder["indentation"] = "  ";
   builder["precision"] = 10; // significant digits: micrometres on a metre, no binary noise
@@ -652,103 +911,15 @@ RegistrationRecord ParseRegistrationRecord(const std::string& text, const std::s
     throw InputError(origin, "is not valid JSON: " + errors);
   const Fields f(root, origin);
   RegistrationRecord r;
-  const std::string status = f.Text("status");
-  if (status != "ok" && status != "failed")
-    f.Fail("status", "must be \"ok\" or \"failed\"");
-  r.ok = status == "ok";
-  r.misalignment = f.PoseAt("misalignment");
-  r.correction = f.PoseAt("correction");
-  if (root.isMember("uncertainty") && root["uncertainty"].isObject()) // null: no maximum along that axis
+  for (const FieldCodec& codec : Codecs())
   {
-    for (int a = 0; a < 6; ++a)
-    {
-      const Json::Value& value = root["uncertainty"][axes[a]];
-      r.uncertainty[a] = value.isNumeric() ? value.asDouble() : std::numeric_limits<double>::infinity();
-    }
+    if (!codec.read)
+      continue;
+    if (f.Has(codec.field.name))
+      codec.read(f, r);
+    else if (codec.field.required)
+      f.At(codec.field.name); // refused, naming the field
   }
-  if (f.Has("initial_pose")) // absent in records written before --initial-pose
-    r.initialPose = f.PoseAt("initial_pose");
-  r.viewNames = f.Texts("views");
-  r.similarity = f.PerViewNumbers("similarity", r.viewNames);
-  r.objective = f.Number("similarity.objective");
-  r.explained = f.PerViewNumbers("explained_information", r.viewNames);
-  r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames);
-  r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames);
-  r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames);
-  if (f.Has("xray_smoothing_px")) // absent in records written before the smoothing
-    r.xraySmoothingPixels = f.PerViewNumbers("xray_smoothing_px", r.viewNames);
-  if (f.Has("volume_to_room")) // absent in records written before it
-    ReadPlacement(f, r);
-  if (f.Has("edge_distance_mm")) // absent in records written before it
-  {
-    r.edgeDistanceMM = f.PerViewNumbers("edge_distance_mm", r.viewNames);
-    r.edgeDistanceShiftedMM = f.PerViewNumbers("edge_distance_moved_3mm", r.viewNames);
-  }
-  if (f.Has("ct_end_faces")) // absent when the coverage mask was off
-    for (const std::string& name : r.viewNames)
-    {
-      const std::string at = "ct_end_faces." + name + ".";
-      EndFaceEvidence faces;
-      faces.excess[0] = f.Number(at + "excess_first_slice");
-      faces.excess[1] = f.Number(at + "excess_last_slice");
-      faces.facesToLeaveOut = static_cast<uint8_t>((f.Bool(at + "left_out_first_slice") ? FirstSliceFace : 0) |
-        (f.Bool(at + "left_out_last_slice") ? LastSliceFace : 0));
-      r.endFaces.push_back(faces);
-    }
-  r.drrCount = static_cast<long long>(f.Number("drr_count"));
-  if (f.Has("device")) // absent in records written before the GPU ray caster: those ran on the CPU
-    r.device = f.Text("device");
-  if (f.Has("render_strides")) // absent in records written before the strides
-  {
-    // A stride the registration could not have used (SetRenderStride takes 1 to 8) marks a damaged record.
-    const auto step = [&f](const std::string& at)
-    {
-      const double value = f.Number(at);
-      if (value != std::floor(value) || value < 1 || value > 8)
-        f.Fail(at, "must be a whole number from 1 to 8");
-      return static_cast<int>(value);
-    };
-    const auto read = [&f, &step](const std::string& at)
-    {
-      if (f.At(at).isNumeric()) // one number for both axes before the strides per axis
-        return RenderStride{ step(at), step(at) };
-      return RenderStride{ step(at + ".columns"), step(at + ".rows") };
-    };
-    r.searchRenderStride = read("render_strides.search");
-    r.fineRenderStride = read("render_strides.fine");
-  }
-  r.evaluations = static_cast<int>(f.Number("evaluations"));
-  r.readSeconds = f.Number("timing_s.read");
-  r.prealignSeconds = f.Number("timing_s.prealign");
-  r.maskSeconds = f.Number("timing_s.mask");
-  r.fineSeconds = f.Number("timing_s.fine");
-  r.totalSeconds = f.Number("timing_s.total");
-  r.searchApartMM = f.Number("search_disagreement.mm");
-  r.searchApartDegrees = f.Number("search_disagreement.degrees");
-  r.searchObjectiveRatio = f.Number("search_disagreement.objective_ratio");
-  for (const Json::Value& item : f.Array("failures"))
-  {
-    if (!item.isObject() || !item["code"].isString() || !item["message"].isString())
-      f.Fail("failures", "must list {code, view, message}");
-    int view = -1;
-    for (size_t v = 0; item["view"].isString() && v < r.viewNames.size(); ++v)
-      view = r.viewNames[v] == item["view"].asString() ? static_cast<int>(v) : view;
-    r.failures.push_back({ CodeNamed(item["code"].asString(), f), view, item["message"].asString() });
-  }
-  if (r.ok != r.failures.empty())
-    f.Fail("failures", "must be empty exactly when status is ok");
-  ReadGateFigures(f, r);
-  ReadTableChoice(f, r);
-  if (f.Has("couch")) // absent for a failed result and in records written before the couch
-  {
-    if (!r.ok)
-      f.Fail("couch", "is given only for an ok result");
-    r.couch = CouchAt(f, r.targetInCT, r.actionLevels);
-  }
-  if (f.Has("inputs"))
-    r.inputs = InputsAt(f, root["inputs"]);
-  ReadConvergence(f, r);
-  r.objectiveTrace = f.Numbers("convergence.objective");
   return r;
 }
 

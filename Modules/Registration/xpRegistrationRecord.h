@@ -95,6 +95,29 @@ struct RegistrationRecord
   std::vector<std::string> Reasons() const;
 };
 
+/**
+ * One top-level field of result.json as the record's schema lists it. The schema is one table
+ * (xpRegistrationRecord.cxx) from which the writer and the reader are both driven: a field is
+ * added by one row there, and the user guide's table is checked against it by a test.
+ */
+struct RegistrationRecordField
+{
+  std::string name;    ///< the key in result.json
+  std::string type;    ///< "text", "number", "pose", "per view", "object", ...
+  std::string unit;    ///< "mm", "deg", "s", ... (empty: none, or mixed and named inside)
+  std::string meaning; ///< one line
+  /** When it is written: "always", or the condition under which the record holds it. */
+  std::string presence;
+  /** Whether a record without it is refused (false: absent in records written before it, or
+   *  written only where it applies; the reader keeps the record's default). */
+  bool required = false;
+  /** Whether the reader takes it back (false: derived from other fields, as `reasons`). */
+  bool read = true;
+};
+
+/** result.json's fields, in the order the reader takes them. */
+VTKXPREGISTRATION_EXPORT const std::vector<RegistrationRecordField>& RegistrationRecordSchema();
+
 /** The record of a result whose views carry `viewNames`; timings of reading and of the whole
  *  run are the caller's. */
 VTKXPREGISTRATION_EXPORT RegistrationRecord MakeRegistrationRecord(

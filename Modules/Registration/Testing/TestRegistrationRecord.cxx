@@ -7,6 +7,7 @@
 #include <vtk_jsoncpp.h>
 
 #include <fstream>
+#include <limits>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -357,22 +358,92 @@ TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)
 // The user guide's table of result.json's fields names every field a record can hold, and no
 // field a record does not write: a field added to the record without its line there, or a line
 // left behind by a renamed field, fails here.
-TEST(RegistrationRecord, TheUserGuideListsEveryFieldItWrites)
+namespace
 {
-  xp::RegistrationRecord everything = FailedRecord(); // with every optional part below
+
+/** An ok record with every optional part the schema knows. */
+xp::RegistrationRecord Everything()
+{
+  xp::RegistrationRecord everything = FailedRecord();
+  everything.ok = true;
+  everything.failures.clear();
   everything.couch.emplace();
+  everything.couch->couch.pitchRollLimitDegrees = 3.0;
+  everything.couch->limitedBy = { "pitch_limit" };
   everything.table.emplace().tableCM3 = 1200.0;
+  everything.table->withTable = 0.25;
+  everything.table->bodyOnly = 0.125;
   everything.restartsApartMM = 0.25;
   everything.restartsApartDegrees = 0.1;
-  everything.volumeToRoom = Eigen::Isometry3d::Identity();
+  everything.volumeToRoom = Eigen::Isometry3d(Eigen::Translation3d(1.5, -2.0, 0.25));
+  everything.volumeCenter = Eigen::Vector3d(10.0, 20.0, -30.0);
   everything.edgeDistanceMM = everything.edgeDistanceShiftedMM = { 0.5, 0.75 };
   everything.xrayCorrelation = { -0.5, 0.25 };
+  everything.halvesApartMM = { 0.125, 1.5 };
+  everything.uncertainty = { 0.5, 0.25, std::numeric_limits<double>::infinity(), 0.1, 0.2, 0.3 };
+  everything.peakMargin = 0.0625;
+  everything.peakLeads.fill(0.03125);
+  everything.boneOnly = true;
   everything.inputs.emplace().ct = "/data/ct";
+  everything.readSeconds = 0.5;
+  return everything;
+}
+
+std::set<std::string> FieldsWritten(const xp::RegistrationRecord& record)
+{
   Json::Value root;
-  std::istringstream(xp::RegistrationRecordJSON(everything)) >> root;
+  std::istringstream(xp::RegistrationRecordJSON(record)) >> root;
   std::set<std::string> written;
   for (const std::string& name : root.getMemberNames())
     written.insert(name);
+  return written;
+}
+
+} // namespace
+
+// The schema is the record: every field it lists is written for a record that has it, nothing
+// else is, and what is read back writes the same text again (a field written but not read, or
+// read into the wrong place, would not).
+TEST(RegistrationRecord, TheSchemaListsWhatIsWrittenAndReadsItAllBack)
+{
+  const xp::RegistrationRecord everything = Everything();
+  std::set<std::string> listed;
+  for (const xp::RegistrationRecordField& field : xp::RegistrationRecordSchema())
+  {
+    EXPECT_TRUE(listed.insert(field.name).second) << "'" << field.name << "' is listed twice";
+    EXPECT_FALSE(field.type.empty() || field.meaning.empty() || field.presence.empty()) << field.name;
+    EXPECT_TRUE(!field.required || field.presence == "always") << field.name << ": required but not always written";
+  }
+  EXPECT_EQ(FieldsWritten(everything), listed);
+  const std::string text = xp::RegistrationRecordJSON(everything);
+  EXPECT_EQ(xp::RegistrationRecordJSON(xp::ParseRegistrationRecord(text, "result.json")), text);
+  // A required field's absence is refused by name; an optional one's keeps the default, unless
+  // it is written together with another (`volume_center` with `volume_to_room`), when it too is
+  // refused by name.
+  for (const xp::RegistrationRecordField& field : xp::RegistrationRecordSchema())
+  {
+    Json::Value root;
+    std::istringstream(text) >> root;
+    root.removeMember(field.name);
+    const std::string without = Json::writeString(Json::StreamWriterBuilder(), root);
+    try
+    {
+      xp::ParseRegistrationRecord(without, "older.json");
+      EXPECT_FALSE(field.required) << "a record without '" << field.name << "' was accepted";
+    }
+    catch (const xp::InputError& e)
+    {
+      EXPECT_TRUE(field.required || field.presence.rfind("with ", 0) == 0) << e.what();
+      EXPECT_NE(std::string(e.what()).find("'" + field.name), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(RegistrationRecord, TheUserGuideListsEveryFieldItWrites)
+{
+  std::set<std::string> written;
+  for (const xp::RegistrationRecordField& field : xp::RegistrationRecordSchema())
+    written.insert(field.name);
 
   std::ifstream guide(std::string(XP_SOURCE_DIR) + "/Documentation/UserGuide.md");
   ASSERT_TRUE(guide) << "Documentation/UserGuide.md not found under " << XP_SOURCE_DIR;
