@@ -84,7 +84,7 @@ int vtkXPMutualInformationMetric::RequestData(vtkInformation*, vtkInformationVec
     histogram.Compute(fixed, moving, count, fixedMask, movingMask);
     this->MutualInformation = histogram.MutualInformation();
     this->NormalizedMutualInformation = histogram.NormalizedMutualInformation();
-    this->NormalizedCrossCorrelation = xp::NormalizedCrossCorrelation(fixed, moving, count, fixedMask, movingMask);
+    this->NormalizedCrossCorrelation = xp::PearsonCorrelation(fixed, moving, static_cast<size_t>(count), fixedMask, movingMask);
     this->NumberOfValidPixels = histogram.Samples();
 
     vtkImageData* output = vtkImageData::GetData(outputVector);

@@ -117,31 +117,4 @@ double JointHistogram::NormalizedMutualInformation() const
   return joint > 0.0 ? (this->FixedEntropy() + this->MovingEntropy()) / joint : 1.0;
 }
 
-double NormalizedCrossCorrelation(const uint16_t* fixed, const uint16_t* moving, long long count,
-  const uint8_t* fixedMask, const uint8_t* movingMask)
-{
-  double sf = 0, sm = 0, sff = 0, smm = 0, sfm = 0;
-  long long n = 0;
-  for (long long i = 0; i < count; ++i)
-  {
-    if ((fixedMask && !fixedMask[i]) || (movingMask && !movingMask[i]))
-    {
-      continue;
-    }
-    const double f = fixed[i], m = moving[i];
-    sf += f;
-    sm += m;
-    sff += f * f;
-    smm += m * m;
-    sfm += f * m;
-    ++n;
-  }
-  if (n < 2)
-  {
-    return 0.0;
-  }
-  const double cov = sfm - sf * sm / n, vf = sff - sf * sf / n, vm = smm - sm * sm / n;
-  return (vf > 0 && vm > 0) ? cov / std::sqrt(vf * vm) : 0.0;
-}
-
 } // namespace xp

@@ -1,7 +1,8 @@
 /**
  * @file xpMutualInformation.h
  * @brief Joint histogram of two 12-bit images over the pixels valid in both masks, and the
- *        similarity measures computed from it (paper eq. 1): MI, normalised MI; and NCC.
+ *        similarity measures computed from it (paper eq. 1): MI, normalised MI; and the
+ *        correlation (NCC).
  *
  * Masked pixels are skipped, never counted as zeros. The histogram keeps its buffer between
  * calls, so a registration evaluates the metric without allocating.
@@ -11,6 +12,8 @@
 
 #include "vtkXPMetricsModule.h"
 
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -55,9 +58,28 @@ private:
   std::vector<uint16_t> BinOf;
 };
 
-/** Normalised cross-correlation over the pixels valid in both masks; 0 when undefined. */
-VTKXPMETRICS_EXPORT double NormalizedCrossCorrelation(const uint16_t* fixed, const uint16_t* moving, long long count,
-  const uint8_t* fixedMask = nullptr, const uint8_t* movingMask = nullptr);
+/**
+ * The correlation (Pearson's; normalised cross-correlation) of two images over the `count`
+ * pixels valid in both masks (null: every pixel); 0 where fewer than two pixels are valid or
+ * either image is flat over them. The one correlation of xpose: the metric's NCC, the X-ray's
+ * polarity and the gate's held-out structure.
+ */
+template <typename A, typename B>
+double PearsonCorrelation(const A* a, const B* b, size_t count, const uint8_t* maskA = nullptr, const uint8_t* maskB = nullptr)
+{
+  double n = 0, sa = 0, sb = 0, sab = 0, saa = 0, sbb = 0;
+  for (size_t i = 0; i < count; ++i)
+  {
+    if ((maskA && !maskA[i]) || (maskB && !maskB[i]))
+      continue;
+    const double x = a[i], y = b[i];
+    n += 1, sa += x, sb += y, sab += x * y, saa += x * x, sbb += y * y;
+  }
+  if (n < 2)
+    return 0.0;
+  const double va = saa - sa * sa / n, vb = sbb - sb * sb / n;
+  return va > 0.0 && vb > 0.0 ? (sab - sa * sb / n) / std::sqrt(va * vb) : 0.0;
+}
 
 } // namespace xp
 

@@ -106,25 +106,6 @@ private:
   std::vector<double> Weight; ///< the valid pixels per grid cell, blurred
 };
 
-/** Pearson correlation of two images over the `count` pixels whose mask is non-zero (null: all);
- *  0 where either is flat. */
-template <typename A, typename B>
-double PearsonCorrelation(const A* a, const B* b, const uint8_t* mask, size_t count)
-{
-  double n = 0, sa = 0, sb = 0, sab = 0, saa = 0, sbb = 0;
-  for (size_t i = 0; i < count; ++i)
-  {
-    if (mask && !mask[i])
-      continue;
-    const double x = a[i], y = b[i];
-    n += 1, sa += x, sb += y, sab += x * y, saa += x * x, sbb += y * y;
-  }
-  if (n == 0)
-    return 0.0;
-  const double spread = std::sqrt(std::max(0.0, (saa - sa * sa / n) * (sbb - sb * sb / n)));
-  return spread > 0.0 ? (sab - sa * sb / n) / spread : 0.0;
-}
-
 } // namespace xp
 
 #endif

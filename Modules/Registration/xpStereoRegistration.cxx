@@ -4,6 +4,7 @@
 #include "xpCTCoverage.h"
 #include "xpEdgeAgreement.h"
 #include "xpError.h"
+#include "xpMutualInformation.h"
 #include "xpPoseOptimizer.h"
 #include "xpQualityGate.h"
 #include "xpRayCaster.h"
@@ -589,7 +590,7 @@ struct WorkingXRays
 /** Pearson correlation of an X-ray's levels with its DRR over the valid pixels (empty mask: all). */
 double CorrelationWithDRR(const std::vector<uint16_t>& xray, const std::vector<uint16_t>& drr, const std::vector<uint8_t>& mask)
 {
-  return PearsonCorrelation(xray.data(), drr.data(), mask.empty() ? nullptr : mask.data(), xray.size());
+  return PearsonCorrelation(xray.data(), drr.data(), xray.size(), mask.empty() ? nullptr : mask.data());
 }
 
 /**

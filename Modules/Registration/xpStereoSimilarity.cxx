@@ -2,6 +2,7 @@
 
 #include "xpError.h"
 #include "xpImageLevels.h"
+#include "xpMutualInformation.h"
 #include "xpParallel.h"
 
 #include <vtkSMPTools.h>
@@ -371,7 +372,7 @@ double StereoSimilarity::CorrelateDRR(size_t v)
   for (size_t i = 0; i < integral.size(); ++i)
     structure[i] = -integral[i];
   this->DRRCorrelationLowPass[v].Subtract(structure.data());
-  return PearsonCorrelation(this->XRayStructure[v].data(), structure.data(), mask, structure.size());
+  return PearsonCorrelation(this->XRayStructure[v].data(), structure.data(), structure.size(), mask);
 }
 
 void StereoSimilarity::RankDRR(size_t v)
