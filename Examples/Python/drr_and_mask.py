@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
 """Renders a DRR of one imager with the xpose DRR filter, computes its block-entropy validity
-mask, and writes both as PNG (off-screen: no display needed).
+mask, compares it with the DRR at the planned pose as a registration compares an X-ray with a
+DRR (mutual information over the mask's pixels), and writes the DRR, the mask and a colour
+overlay of the two DRRs as PNG (off-screen: no display needed).
 
     drr_and_mask.py --ct DICOM_FOLDER --geometry FILE [--view 0] [--pose tx,ty,tz,pitch,roll,yaw]
                     --out-dir DIR
 
-Prints the DRR's size, the image entropy H(X) and the mask's valid fraction.
+Prints the DRR's size, the image entropy H(X), the mask's valid fraction, and the mutual
+information and correlation with the planned pose's DRR over the valid pixels.
 """
 import argparse
 import os
@@ -39,15 +42,33 @@ def main():
     if ct.GetErrorText():
         sys.exit(f"drr_and_mask.py: error: {ct.GetErrorText()}")
 
-    drr = xpose.vtkXPDRRFilter()
-    drr.SetCTConnection(ct.GetOutputPort())
-    if not drr.SetViewFromGeometryFile(args.geometry, args.view) or not drr.SetPatientPosition(ct.GetPatientPosition()):
-        sys.exit(f"drr_and_mask.py: error: {drr.GetLastError()}")
-    drr.SetMisalignmentParameters(*[float(v) for v in args.pose.split(",")])
+    def drr_at(pose):
+        drr = xpose.vtkXPDRRFilter()
+        drr.SetCTConnection(ct.GetOutputPort())
+        if not drr.SetViewFromGeometryFile(args.geometry, args.view) or not drr.SetPatientPosition(ct.GetPatientPosition()):
+            sys.exit(f"drr_and_mask.py: error: {drr.GetLastError()}")
+        drr.SetMisalignmentParameters(*pose)
+        return drr
+
+    drr = drr_at([float(v) for v in args.pose.split(",")])
+    planned = drr_at([0.0] * 6)
 
     mask = xpose.vtkXPEntropyMaskFilter()
     mask.SetInputConnection(drr.GetOutputPort(0))
     mask.Update()
+
+    # The DRR at --pose in the X-ray's place, the planned pose's DRR as the one a registration
+    # would move: their mutual information over the pixels the mask keeps, and an overlay (X-ray
+    # magenta, DRR green; aligned structures turn grey).
+    metric = xpose.vtkXPMutualInformationMetric()
+    metric.SetFixedConnection(drr.GetOutputPort(0))
+    metric.SetMovingConnection(planned.GetOutputPort(0))
+    metric.SetFixedMaskConnection(mask.GetOutputPort(0))
+    metric.Update()
+    overlay = xpose.vtkXPOverlayFilter()
+    overlay.SetXRayConnection(drr.GetOutputPort(0))
+    overlay.SetDRRConnection(planned.GetOutputPort(0))
+    overlay.SetModeToColourBlend()
 
     # The 12-bit DRR stretched to 8 bits for viewing; the mask is 0/255 already.
     display = vtkImageShiftScale()
@@ -57,8 +78,11 @@ def main():
     os.makedirs(args.out_dir, exist_ok=True)
     write_png(display.GetOutputPort(), os.path.join(args.out_dir, "drr.png"))
     write_png(mask.GetOutputPort(0), os.path.join(args.out_dir, "mask.png"))
+    write_png(overlay.GetOutputPort(), os.path.join(args.out_dir, "overlay.png"))
     columns, rows, _ = drr.GetOutput(0).GetDimensions()
-    print(f"DRR {columns}x{rows}, H(X) {mask.GetImageEntropy():.3f}, valid fraction {mask.GetValidFraction():.3f}")
+    print(f"DRR {columns}x{rows}, H(X) {mask.GetImageEntropy():.3f}, valid fraction {mask.GetValidFraction():.3f}, "
+          f"MI with the planned pose's DRR {metric.GetMutualInformation():.3f} "
+          f"(NCC {metric.GetNormalizedCrossCorrelation():.3f}) over {metric.GetNumberOfValidPixels()} pixels")
 
 
 if __name__ == "__main__":

@@ -27,6 +27,13 @@ public:
 
   void SetMode(xp::OverlayMode mode);
   xp::OverlayMode GetMode() const { return this->Mode; }
+  ///@{
+  /** The modes by name, as VTK's filters and Python set them. */
+  void SetModeToCheckerboard() { this->SetMode(xp::OverlayMode::Checkerboard); }
+  void SetModeToColourBlend() { this->SetMode(xp::OverlayMode::ColourBlend); }
+  void SetModeToEdges() { this->SetMode(xp::OverlayMode::Edges); }
+  void SetModeToMaskedXRay() { this->SetMode(xp::OverlayMode::MaskedXRay); }
+  ///@}
 
 protected:
   vtkXPOverlayFilter();
