@@ -202,11 +202,13 @@ RegistrationRecord RegisterFiles(const RegisterOptions& options)
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
   const ComputeDevice device = UseDevice(options.device);
+  // The settings, checked and completed from the options once, before the CT is read.
   CheckRegistrationSettings(options.settings);
-  StereoRegistrationSettings optimizers;
-  SetOptimizers(options.optimizer, optimizers, "--optimizer"); // checked before the CT is read
+  StereoRegistrationSettings settings = options.settings;
+  settings.device = device;
+  SetOptimizers(options.optimizer, settings, "--optimizer");
   if (!options.initialPose.empty())
-    Pose::Parse(options.initialPose, "--initial-pose");
+    settings.initialPose = Pose::Parse(options.initialPose, "--initial-pose");
   // Output folders are checked before the work, not after it: a registration whose result
   // cannot be written must not run for seconds and then fail.
   StagedOutputDirectory::CheckWritable(options.outputDirectory);
@@ -236,12 +238,7 @@ RegistrationRecord RegisterFiles(const RegisterOptions& options)
                   "left out\n", inputs.views[v].view.name.c_str(), inputs.fields[v].center[0], inputs.fields[v].center[1],
         inputs.fields[v].radius);
 
-  StereoRegistrationSettings settings = options.settings;
-  settings.device = device;
-  SetOptimizers(options.optimizer, settings, "--optimizer");
-  if (!options.initialPose.empty())
-    settings.initialPose = Pose::Parse(options.initialPose, "--initial-pose");
-  else if (UsesGlobalSearch(options))
+  if (options.initialPose.empty() && UsesGlobalSearch(options))
     settings.initialPose = FoundStart(session);
   const StageLogger logger(session.Filter());
   session.Run(settings);
