@@ -92,10 +92,22 @@ if [ "$what" = matrix ]; then
       cell "${ct%%:*}-$renderer-log-5000" "$n" --ct "${ct#*:}" --scenario "$renderer" --detector log --dose 5000
     done
   done
+  # The treatment room's couch: X-rays that show the CT's table (plastimatch), another couch (the
+  # physics simulator) and none (the simulator without its couch), each also with read noise of
+  # 0.004 of the open field, where the table's edges stand out of a noisy body.
+  for ct in pelvis:$pelvis phantom:eval/phantom-ct-2mm pelvis3mm:eval/pelvis-ct-3mm.nii.gz; do
+    cell "${ct%%:*}-nocouch-linear16" "$n" --ct "${ct#*:}" --scenario clinical --without couch --detector linear16 --dose 20000
+    for renderer in plastimatch clinical; do
+      cell "${ct%%:*}-$renderer-linear16-noise" "$n" --ct "${ct#*:}" --scenario "$renderer" --detector linear16 --dose 20000 --electronic-noise 0.004
+    done
+    cell "${ct%%:*}-nocouch-linear16-noise" "$n" --ct "${ct#*:}" --scenario clinical --without couch --detector linear16 --dose 20000 --electronic-noise 0.004
+  done
   # Another patient, and the same patient 10 % narrower, deeper or longer: none may end ok.
   cell wrong-pelvis-ct-thorax-xrays "$n" --ct "$pelvis" --xray-ct "$thorax" --scenario plastimatch --detector linear16
   cell wrong-thorax-ct-pelvis-xrays "$n" --ct "$thorax" --xray-ct "$pelvis" --scenario plastimatch --detector log
   cell wrong-phantom-ct-pelvis-xrays "$n" --ct eval/phantom-ct-2mm --xray-ct "$pelvis" --scenario plastimatch --detector linear12
+  cell wrong-thorax-ct-pelvis-xrays-noise "$n" --ct "$thorax" --xray-ct "$pelvis" --scenario plastimatch --detector linear16 --electronic-noise 0.004
+  cell wrong-pelvis-ct-thorax-xrays-nocouch "$n" --ct "$pelvis" --xray-ct "$thorax" --scenario clinical --without couch --detector linear16
   # The near anatomy as raw and as processed images: an unsharp mask leaves the halves less to
   # disagree on.
   for axis in 0 1 2; do

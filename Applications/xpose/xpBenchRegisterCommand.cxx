@@ -225,6 +225,7 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   settings.successMTRE = 1.0;
   settings.shrinkFactor = RegistrationShrinkFactor(geometry.views, options.size);
   settings.registration.entropyMask = true;
+  settings.registration.chooseTable = options.chooseTable;
   settings.registration.device = UseDevice(options.device);
   const int cores = options.threads > 0 ? options.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int dims[3];

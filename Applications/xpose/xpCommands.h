@@ -59,6 +59,15 @@ struct DRROptions
   std::string dicomOutputDirectory; ///< when set, the DRRs as RT Images too (needs a DICOM CT)
 };
 
+/** The registration settings every command starts from: the library's, with the CT's table
+ *  chosen by the X-rays (--choose-table; --keep-table and --remove-table decide it instead). */
+inline StereoRegistrationSettings CommandSettings()
+{
+  StereoRegistrationSettings settings;
+  settings.chooseTable = true;
+  return settings;
+}
+
 struct BenchOptions
 {
   std::string ct;
@@ -84,7 +93,8 @@ struct BenchRegisterOptions
   /** Clinical effects switched off, as evaluate's: "truncation" registers against a CT that
    *  covers the X-rays' whole field, as most users' CTs do (twice the valid pixels here). */
   std::vector<std::string> without;
-  bool removeTable = true;
+  bool chooseTable = true;          ///< as register's --choose-table, --keep-table, --remove-table
+  bool removeTable = false;
   int trials = 5;
   std::string size = "512x384";
   /** One name for every 6-DOF stage, or SEARCH/REFINEMENT. */
@@ -138,7 +148,7 @@ struct RegisterOptions : RegistrationSources
   std::string initialPose;          ///< "tx,ty,tz,pitch,roll,yaw"; empty = the planned set-up
   std::string optimizer = "nelder-mead"; ///< of the 6-DOF stages: one name, or SEARCH/REFINEMENT
   bool globalSearch = false;        ///< find the start (xpGlobalSearch.h); always for a TIFF volume without initialPose
-  StereoRegistrationSettings settings; ///< the method and its quality gate, as the options set them
+  StereoRegistrationSettings settings = CommandSettings(); ///< the method and its quality gate, as the options set them
   int threads = 0;
   std::string device = "cpu";       ///< --device: auto | cpu | cuda (xpRayCaster.h, ChooseComputeDevice)
   std::string outputDirectory;
@@ -207,11 +217,11 @@ struct EvaluateOptions
   std::string size;                 ///< registration resolution COLSxROWS (default: the panel's)
   std::string scenario = "noisy";   ///< clean | noisy | objects | truncated | clinical
   std::vector<std::string> without; ///< clinical: effects turned off (physics effects, "truncation")
-  bool removeTable = true;          ///< register against the CT without its table
+  bool removeTable = false;         ///< --remove-table: register against the body alone
   /** Registration steps switched off, to measure what each does: levels, high-pass, coverage. */
   std::vector<std::string> registrationOff;
   std::string optimizer = "nelder-mead"; ///< as register's --optimizer: SEARCH or SEARCH/REFINEMENT
-  StereoRegistrationSettings settings; ///< each approach's, but for the entropy mask
+  StereoRegistrationSettings settings = CommandSettings(); ///< each approach's, but for the entropy mask
   std::vector<std::string> approaches{ "A", "B" };
   double noise = 30.0;              ///< quantum noise of the noisy scenarios, grey levels
   std::string detector;             ///< clinical, plastimatch: linear12 | linear16 | log | processed

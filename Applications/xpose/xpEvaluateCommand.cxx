@@ -68,7 +68,8 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << o.settings.maxViewResidual << ", \"max_uncovered\": " << o.settings.maxUncovered << ", \"max_search_apart_mm\": "
        << o.settings.maxSearchDisagreementMM << ", \"max_search_apart_deg\": " << o.settings.maxSearchDisagreementDegrees
        << ", \"max_refined_apart_deg\": " << o.settings.maxRefinedApartDegrees << "}"
-       << ",\n  \"remove_table\": " << (o.removeTable && !o.settings.chooseTable && o.scenario == "clinical" ? "true" : "false") << ",\n  \"x_rays\": " << model
+       << ",\n  \"table\": \"" << (o.settings.chooseTable ? "chosen by the X-rays" : o.removeTable ? "removed" : "kept") << "\""
+       << ",\n  \"x_rays\": " << model
        << ",\n  \"success_mtre_mm\": " << o.successMTRE << ",\n  \"target_region\": \"CT voxels above " << TargetHU
        << " HU within " << TargetRadiusMM << " mm of the isocentre\"\n}\n";
   return text.str();
@@ -162,9 +163,7 @@ int RunEvaluate(const EvaluateOptions& options)
   std::optional<DetectorSettings> detector;
   if (!options.detector.empty())
     detector = DetectorSettings{ ParseDetectorFormat(options.detector, "--detector"), options.dose, options.electronicNoise };
-  // --choose-table: the registration gets the CT with its table and chooses for itself.
-  const EvaluationScenario scenario(
-    options.scenario, options.without, options.noise, options.removeTable && !options.settings.chooseTable, detector);
+  const EvaluationScenario scenario(options.scenario, options.without, options.noise, options.removeTable, detector);
   CheckTrialOptions(options);
   AccuracyEvaluationSettings settings;
   settings.registration = RegistrationSettingsOf(options);

@@ -39,9 +39,6 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
       "stop looser, restart once) or standard (the earlier schedule: more and larger DRRs; Algorithms.md, \"The schedule\")")
     ->check(CLI::IsMember({ "standard", "economy" }))
     ->default_str("economy");
-  command->add_flag("--choose-table", settings.chooseTable,
-    "Pre-align the CT with its table and its body alone, and register the one whose DRRs' edges match the X-rays' better there "
-    "(the CT's table shows in a renderer's X-rays, never in a room's; result.json `table`)");
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds of moving the refinement's end to the vertex of the objective's parabola along each axis, through its values "
     "1.5 mm and 1 degree either side (0: off)")->capture_default_str();
@@ -52,6 +49,20 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--coverage-min-excess", settings.coverageMinExcess,
     "Those rays are left out beyond an end face where their upper quarter is more attenuated than the DRR "
     "predicts by this fraction of the X-ray's range (0: always)")->capture_default_str();
+}
+
+/** The CT's table: chosen by the X-rays (the default), kept, or removed; one of the three. */
+void AddTableOptions(CLI::App* command, bool& chooseTable, bool& removeTable)
+{
+  CLI::Option* choose = command->add_flag("--choose-table", chooseTable,
+    "The default: pre-align the CT with its table and its body alone, and register the one whose DRRs' edges match the "
+    "X-rays' better there (the CT's table shows in a renderer's X-rays, never in a room's; result.json `table`)");
+  CLI::Option* keep = command->add_flag_callback("--keep-table", [&chooseTable] { chooseTable = false; },
+    "Render DRRs from the CT as it is, its table included");
+  CLI::Option* remove = command->add_flag_callback("--remove-table", [&chooseTable, &removeTable] { chooseTable = false, removeTable = true; },
+    "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
+  choose->excludes(keep)->excludes(remove);
+  keep->excludes(remove);
 }
 
 /** The quality gate's limits (Algorithms.md, "quality gate"). */
@@ -172,7 +183,7 @@ CLI::App* AddBenchCommand(CLI::App& app, xp::BenchOptions& options, xp::BenchReg
   benchRegister->add_option("--without", reg.without,
     "Clinical effects to switch off (as evaluate): truncation registers against a CT as long as the X-rays' field")
     ->delimiter(',');
-  benchRegister->add_flag("!--keep-table", reg.removeTable, "Register against the CT with its table (as evaluate)");
+  AddTableOptions(benchRegister, reg.chooseTable, reg.removeTable);
   benchRegister->add_option("--trials", reg.trials, "Misalignments per optimiser (the same for each)")->capture_default_str();
   benchRegister->add_option("--size", reg.size, "Registration resolution COLSxROWS")->capture_default_str();
   std::string optimizerNames;
@@ -274,8 +285,7 @@ void AddRegistrationOptions(CLI::App* command, xp::RegisterOptions& options)
     "(nelder-mead/bobyqa); xpose bench register compares them")->capture_default_str();
   command->add_flag("--global-search", options.globalSearch,
     "Find the start over all orientations and places in both views (always for a TIFF volume without --initial-pose)");
-  command->add_flag("--remove-table", options.removeTable,
-    "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
+  AddTableOptions(command, options.settings.chooseTable, options.removeTable);
   AddMethodOptions(command, options.settings);
   command->add_option("--max-translation", options.settings.maxTranslation, "Gate: largest accepted correction, mm")
     ->capture_default_str();
@@ -372,7 +382,7 @@ CLI::App* AddEvaluateCommand(CLI::App& app, xp::EvaluateOptions& options)
     "(plastimatch drr's line integrals)")->capture_default_str();
   evaluateCommand->add_option("--without", options.without,
     "Clinical effects to switch off: truncation and those of simulate --without")->delimiter(',');
-  evaluateCommand->add_flag("!--keep-table", options.removeTable, "Register against the CT with its table");
+  AddTableOptions(evaluateCommand, options.settings.chooseTable, options.removeTable);
   evaluateCommand->add_option("--optimizer", options.optimizer,
     "Optimiser of the 6-DOF stages, as register's: nelder-mead, sbplx, bobyqa, cobyla or SEARCH/REFINEMENT")
     ->capture_default_str();

@@ -56,7 +56,7 @@ EvaluationScenario::EvaluationScenario(const std::string& name, const std::vecto
 vtkSmartPointer<vtkImageData> EvaluationScenario::RegistrationCT(vtkImageData* ct) const
 {
   // Truncated: the X-rays see the whole patient, the registration a CT of half its length;
-  // clinical: of 80 % of its length. The simulated room has no CT table.
+  // clinical: of 80 % of its length.
   vtkSmartPointer<vtkImageData> cut = ct;
   if (this->RegistrationCTLength() < 1.0)
     cut = CropSlices(ct, this->RegistrationCTLength());

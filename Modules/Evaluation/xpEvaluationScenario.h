@@ -52,14 +52,15 @@ public:
   bool UsesPlastimatch() const { return this->Scenario == "plastimatch"; }
   /** The detector that makes the images, when not the simulator's own. */
   const std::optional<DetectorSettings>& Detector() const { return this->DetectorModel; }
-  /** Whether the registration's CT leaves out the table (clinical, unless kept). */
-  bool RemovesTable() const { return this->UsesPhysics() && this->RemoveTable; }
+  /** Whether the registration's CT leaves out the table (--remove-table). */
+  bool RemovesTable() const { return this->RemoveTable; }
   const XRayPhysicsSettings& Physics() const { return this->PhysicsSettings; }
   const XRaySimulation& Model() const { return this->ModelSettings; }
 
   /** The fraction of the CT's slices the registration gets (1: all of them). */
   double RegistrationCTLength() const { return this->Scenario == "truncated" ? 0.5 : this->Truncation ? 0.8 : 1.0; }
-  /** The planning CT the registration gets: cut to the scenario's length, without the table. */
+  /** The planning CT the registration gets: cut to the scenario's length, without the table
+   *  where it is removed. */
   vtkSmartPointer<vtkImageData> RegistrationCT(vtkImageData* ct) const;
 
   /** How the X-rays are made, as JSON (evaluation.json's "x_rays"). */

@@ -53,12 +53,25 @@ public:
   void SetSize(const std::string& columnsXRows) { this->Size = columnsXRows; }
   void SetIsocenterInCT(const std::string& xyz) { this->IsocenterInCT = xyz; }
   void SetMuWater(double perMM) { this->MuWater = perMM; }
-  void SetRemoveTable(bool on) { this->RemoveTable = on; }
   ///@}
 
-  /** The CT with its table or the body alone, whichever the X-rays match better
-   *  (--choose-table; result.json `table`); not with SetRemoveTable. */
+  ///@{
+  /** The CT's table, as register's options: by default the CT with its table or the body alone,
+   *  whichever the X-rays match better (--choose-table; result.json `table`); SetKeepTable renders
+   *  the CT as it is (--keep-table), SetRemoveTable the body alone (--remove-table). Choosing and
+   *  removing at once is refused by Run. */
   void SetChooseTable(bool on) { this->ChooseTable = on; }
+  void SetKeepTable(bool on)
+  {
+    this->ChooseTable = !on;
+    this->RemoveTable = this->RemoveTable && !on;
+  }
+  void SetRemoveTable(bool on)
+  {
+    this->RemoveTable = on;
+    this->ChooseTable = this->ChooseTable && !on;
+  }
+  ///@}
 
   /** Where the search starts (--initial-pose: tx, ty, tz mm, pitch, roll, yaw degrees); zero:
    *  the planned set-up. */
@@ -122,7 +135,7 @@ private:
   std::vector<std::string> XRayPaths, ROIPaths;
   double MuWater;
   bool RemoveTable = false;
-  bool ChooseTable = false;
+  bool ChooseTable = true;
   double InitialPose[6] = { 0, 0, 0, 0, 0, 0 };
   std::string Optimizer = "nelder-mead";
   bool EntropyMask = true;

@@ -87,9 +87,10 @@ TEST(EvaluationScenario, RefusesUnknownScenariosAndEffects)
   EXPECT_THROW(xp::EvaluationScenario("foggy", {}, 30.0, true), xp::InputError);
   EXPECT_THROW(xp::EvaluationScenario("noisy", { "scatter" }, 30.0, true), xp::InputError);
   EXPECT_THROW(xp::EvaluationScenario("clinical", { "no-such-effect" }, 30.0, true), xp::InputError);
-  const xp::EvaluationScenario clean("clean", {}, 30.0, true);
+  const xp::EvaluationScenario clean("clean", {}, 30.0, false);
   EXPECT_EQ(clean.Model().noise, 0.0);
-  EXPECT_FALSE(clean.RemovesTable());
+  EXPECT_FALSE(clean.RemovesTable()); // --remove-table takes the table away in every scenario, where asked
+  EXPECT_TRUE(xp::EvaluationScenario("plastimatch", {}, 30.0, true).RemovesTable());
   const xp::EvaluationScenario objects("objects", {}, 30.0, true);
   EXPECT_EQ(objects.Model().noise, 30.0);
   EXPECT_TRUE(objects.Model().addObjects);
