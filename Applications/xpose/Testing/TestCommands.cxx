@@ -400,6 +400,11 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg/result.json");
   EXPECT_TRUE(result.ok) << FailureCodes(result);
+  // By default the X-rays choose the CT's table: these, DRRs of the CT with its head rest and
+  // couch top, choose it.
+  ASSERT_TRUE(result.table.has_value());
+  EXPECT_GT(result.table->tableCM3, 0.0);
+  EXPECT_TRUE(result.table->keptTable) << result.table->withTable << " against " << result.table->bodyOnly;
   // Misalignment as simulated; the correction of a +5 mm lateral shift is about -5 mm.
   const Eigen::Vector3d t = result.misalignment.translation;
   EXPECT_NEAR(t[0], 5.0, 0.5);
