@@ -19,37 +19,6 @@ Pose ToPose(const std::vector<double>& x)
   return Pose::FromParameters(x.data());
 }
 
-struct Context
-{
-  const std::function<double(const Pose&)>* objective;
-  const std::function<bool(const Pose&, double)>* stopWhen;
-  int evaluations = 0;
-  bool reachedTarget = false;
-  std::vector<double> target; ///< the pose that satisfied stopWhen, and its value
-  double targetValue = 0.0;
-};
-
-double Trampoline(const std::vector<double>& x, std::vector<double>&, void* data)
-{
-  auto* context = static_cast<Context*>(data);
-  ++context->evaluations;
-  const Pose pose = ToPose(x);
-  const double value = (*context->objective)(pose);
-  if (*context->stopWhen && (*context->stopWhen)(pose, value))
-  {
-    context->reachedTarget = true;
-    context->target = x;
-    context->targetValue = value;
-    throw nlopt::forced_stop(); // NLopt stops gracefully and optimize() rethrows
-  }
-  return value;
-}
-
-} // namespace
-
-namespace
-{
-
 struct MethodName
 {
   PoseOptimizerMethod method;
@@ -61,33 +30,73 @@ const MethodName Methods[] = { { PoseOptimizerMethod::NelderMead, "nelder-mead",
   { PoseOptimizerMethod::Subplex, "sbplx", nlopt::LN_SBPLX }, { PoseOptimizerMethod::BOBYQA, "bobyqa", nlopt::LN_BOBYQA },
   { PoseOptimizerMethod::COBYLA, "cobyla", nlopt::LN_COBYLA } };
 
-/** One run of the chosen optimiser from `x` (updated in place). */
-PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const Pose& start,
-  const PoseOptimizerSettings& settings, int evaluationsLeft)
+struct Context
 {
-  nlopt::algorithm algorithm = nlopt::LN_NELDERMEAD;
-  for (const MethodName& m : Methods)
-    if (m.method == settings.method)
-      algorithm = m.algorithm;
-  nlopt::opt optimizer(algorithm, 6);
-  optimizer.set_max_objective(Trampoline, &context);
+  const std::function<double(const std::vector<double>&)>* objective;
+  const std::function<bool(const std::vector<double>&, double)>* stopWhen;
+  int evaluations = 0;
+  bool reachedTarget = false;
+  std::vector<double> target; ///< the point that satisfied stopWhen, and its value
+  double targetValue = 0.0;
+};
+
+double Trampoline(const std::vector<double>& x, std::vector<double>&, void* data)
+{
+  auto* context = static_cast<Context*>(data);
+  ++context->evaluations;
+  const double value = (*context->objective)(x);
+  if (*context->stopWhen && (*context->stopWhen)(x, value))
+  {
+    context->reachedTarget = true;
+    context->target = x;
+    context->targetValue = value;
+    throw nlopt::forced_stop(); // NLopt stops gracefully and optimize() rethrows
+  }
+  return value;
+}
+
+/** The settings of one 6-DOF search from `start` as a search over its parameters. */
+ParameterSearch PoseSearch(const Pose& start, const PoseOptimizerSettings& settings, int evaluationsLeft)
+{
+  ParameterSearch search;
+  search.method = settings.method;
   const std::array<double, 6> origin = start.Parameters();
-  std::vector<double> lower(6), upper(6), step(6), tolerance(6);
   for (int i = 0; i < 6; ++i)
   {
     const bool translation = i < 3;
     const double bound = translation ? settings.boundMM : settings.boundDegrees;
-    lower[i] = origin[i] - bound;
-    upper[i] = origin[i] + bound;
-    step[i] = translation ? settings.initialStepMM : settings.initialStepDegrees;
-    tolerance[i] = translation ? settings.toleranceMM : settings.toleranceDegrees;
+    search.lower.push_back(origin[i] - bound);
+    search.upper.push_back(origin[i] + bound);
+    search.step.push_back(translation ? settings.initialStepMM : settings.initialStepDegrees);
+    search.tolerance.push_back(translation ? settings.toleranceMM : settings.toleranceDegrees);
   }
-  optimizer.set_lower_bounds(lower);
-  optimizer.set_upper_bounds(upper);
-  optimizer.set_initial_step(step);
-  optimizer.set_xtol_abs(tolerance);
-  optimizer.set_maxeval(std::max(1, evaluationsLeft));
-  PoseOptimizerResult result;
+  search.maxEvaluations = std::max(1, evaluationsLeft);
+  if (settings.stopWhen)
+    search.stopWhen = [&settings](const std::vector<double>& x, double value) { return settings.stopWhen(ToPose(x), value); };
+  return search;
+}
+
+} // namespace
+
+ParameterSearchResult MaximizeParameters(
+  const std::function<double(const std::vector<double>&)>& objective, std::vector<double>& x, const ParameterSearch& search)
+{
+  nlopt::algorithm algorithm = nlopt::LN_NELDERMEAD;
+  for (const MethodName& m : Methods)
+    if (m.method == search.method)
+      algorithm = m.algorithm;
+  const size_t n = x.size();
+  if (search.lower.size() != n || search.upper.size() != n || search.step.size() != n || search.tolerance.size() != n)
+    throw Error("parameter search", "needs a bound, a step and a tolerance per parameter");
+  Context context{ &objective, &search.stopWhen };
+  nlopt::opt optimizer(algorithm, static_cast<unsigned>(n));
+  optimizer.set_max_objective(Trampoline, &context);
+  optimizer.set_lower_bounds(search.lower);
+  optimizer.set_upper_bounds(search.upper);
+  optimizer.set_initial_step(search.step);
+  optimizer.set_xtol_abs(search.tolerance);
+  optimizer.set_maxeval(std::max(1, search.maxEvaluations));
+  ParameterSearchResult result;
   try
   {
     double value = 0.0;
@@ -102,7 +111,7 @@ PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const P
   catch (const nlopt::forced_stop&)
   {
     if (!context.reachedTarget)
-      throw Error("pose optimiser", "stopped without reaching its target");
+      throw Error("parameter search", "stopped without reaching its target");
     x = context.target;
     result.value = context.targetValue;
     result.converged = true;
@@ -116,12 +125,11 @@ PoseOptimizerResult RunSimplex(Context& context, std::vector<double>& x, const P
   }
   catch (const std::exception& e)
   {
-    throw Error("pose optimiser", e.what());
+    throw Error("parameter search", e.what());
   }
+  result.evaluations = context.evaluations;
   return result;
 }
-
-} // namespace
 
 PoseOptimizerMethod ParsePoseOptimizerMethod(const std::string& name, const std::string& field)
 {
@@ -153,14 +161,28 @@ std::vector<std::string> PoseOptimizerMethodNames()
 PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)
 {
-  Context context{ &objective, &settings.stopWhen };
+  const std::function<double(const std::vector<double>&)> ofParameters = [&objective](const std::vector<double>& x)
+  { return objective(ToPose(x)); };
   const std::array<double, 6> parameters = start.Parameters();
   std::vector<double> x(parameters.begin(), parameters.end());
-  PoseOptimizerResult result = RunSimplex(context, x, start, settings, settings.maxEvaluations);
+  int evaluations = 0;
+  const auto run = [&](std::vector<double>& from)
+  {
+    const ParameterSearchResult found =
+      MaximizeParameters(ofParameters, from, PoseSearch(start, settings, settings.maxEvaluations - evaluations));
+    evaluations += found.evaluations;
+    PoseOptimizerResult result;
+    result.value = found.value;
+    result.converged = found.converged;
+    result.reachedTarget = found.reachedTarget;
+    result.stopReason = found.stopReason;
+    return result;
+  };
+  PoseOptimizerResult result = run(x);
   for (int restart = 0; restart < settings.maxRestarts && result.converged && !result.reachedTarget; ++restart)
   {
     std::vector<double> again = x;
-    const PoseOptimizerResult next = RunSimplex(context, again, start, settings, settings.maxEvaluations - context.evaluations);
+    const PoseOptimizerResult next = run(again);
     if (next.reachedTarget)
     {
       x = again;
@@ -185,7 +207,7 @@ PoseOptimizerResult MaximizePose(
     }
   }
   result.pose = ToPose(x);
-  result.evaluations = context.evaluations;
+  result.evaluations = evaluations;
   return result;
 }
 

@@ -1,7 +1,9 @@
 /**
  * @file xpPoseOptimizer.h
- * @brief Maximises a pose objective with NLopt's downhill simplex (Nelder-Mead, the paper's) or
- *        another of its derivative-free local optimisers, in mm and degrees.
+ * @brief The optimiser component: maximises an objective over bounded parameters with NLopt's
+ *        downhill simplex (Nelder-Mead, the paper's) or another of its derivative-free local
+ *        optimisers (MaximizeParameters: the pre-alignment's 2D registrations), and a pose
+ *        objective over the 6 pose parameters in mm and degrees (MaximizePose: the 6-DOF stages).
  */
 #ifndef xpPoseOptimizer_h
 #define xpPoseOptimizer_h
@@ -59,7 +61,34 @@ struct PoseOptimizerResult
   std::string stopReason;
 };
 
-/** Maximises `objective` from `start` over the 6 pose parameters with `settings.method`. */
+/** One bounded search over any number of parameters (each vector holds one value per parameter). */
+struct ParameterSearch
+{
+  PoseOptimizerMethod method = PoseOptimizerMethod::NelderMead;
+  std::vector<double> lower, upper; ///< the search box
+  std::vector<double> step;         ///< the first simplex's (or trust region's) size
+  std::vector<double> tolerance;    ///< stop when a step changes every parameter less than this
+  int maxEvaluations = 300;
+  /** When set, the search ends as soon as an evaluated point satisfies it; that point is the result. */
+  std::function<bool(const std::vector<double>&, double)> stopWhen;
+};
+
+struct ParameterSearchResult
+{
+  double value = 0.0;
+  int evaluations = 0;
+  bool converged = false;     ///< stopped on the tolerances or at stopWhen, not on the evaluation limit
+  bool reachedTarget = false; ///< stopped at stopWhen
+  std::string stopReason;
+};
+
+/** Maximises `objective` from `x` (the result is left there) within `search`'s box; throws
+ *  xp::Error when the optimiser fails. */
+VTKXPREGISTRATION_EXPORT ParameterSearchResult MaximizeParameters(
+  const std::function<double(const std::vector<double>&)>& objective, std::vector<double>& x, const ParameterSearch& search);
+
+/** Maximises `objective` from `start` over the 6 pose parameters with `settings.method`
+ *  (MaximizeParameters, restarted while a fresh simplex still improves the optimum). */
 VTKXPREGISTRATION_EXPORT PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings = {});
 

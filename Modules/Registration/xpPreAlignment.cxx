@@ -2,9 +2,9 @@
 
 #include "xpError.h"
 #include "xpMutualInformation.h"
+#include "xpPoseOptimizer.h"
 
 #include <Eigen/Geometry>
-#include <nlopt.hpp>
 #include <vtkSMPTools.h>
 
 #include <cmath>
@@ -112,27 +112,18 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
     histogram.Compute(fixedKept.data(), warped.data(), static_cast<long long>(kept.size()), valid.data());
     return histogram.MutualInformation();
   };
-  using Objective = decltype(mi);
-  nlopt::opt optimizer(nlopt::LN_NELDERMEAD, 3);
-  optimizer.set_max_objective(
-    [](const std::vector<double>& x, std::vector<double>&, void* data) { return (*static_cast<Objective*>(data))(x); },
-    &mi);
+  // Shift along columns and rows (pixels) and in-plane rotation (degrees), by the optimiser
+  // component the 6-DOF stages use (Nelder-Mead).
+  ParameterSearch search;
   const double reach = 0.25 * std::min(columns, rows);
-  optimizer.set_lower_bounds({ -reach, -reach, -20.0 });
-  optimizer.set_upper_bounds({ reach, reach, 20.0 });
+  search.lower = { -reach, -reach, -20.0 };
+  search.upper = { reach, reach, 20.0 };
   const double step = initialStepPixels > 0.0 ? initialStepPixels : 0.03 * columns;
-  optimizer.set_initial_step({ step, step, initialStepPixels > 0.0 ? 0.5 : 2.0 });
-  optimizer.set_xtol_abs({ 0.05, 0.05, 0.02 });
-  optimizer.set_maxeval(400);
+  search.step = { step, step, initialStepPixels > 0.0 ? 0.5 : 2.0 };
+  search.tolerance = { 0.05, 0.05, 0.02 };
+  search.maxEvaluations = 400;
   std::vector<double> x = { 0.0, 0.0, 0.0 };
-  double value = 0.0;
-  try
-  {
-    optimizer.optimize(x, value);
-  }
-  catch (const nlopt::roundoff_limited&)
-  {
-  }
+  MaximizeParameters(mi, x, search);
   motion.shift = { x[0], x[1] };
   motion.rotation = x[2];
   return motion;

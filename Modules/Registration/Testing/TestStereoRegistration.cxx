@@ -317,6 +317,38 @@ TEST(PoseOptimizer, StopsAtTheTargetWithThePoseThatReachedIt)
   EXPECT_LT(early.evaluations, full.evaluations);
 }
 
+// The optimiser component on its own, as the pre-alignment's 2D registrations use it: a peak in
+// three parameters of different scales found within their tolerances, each parameter in its
+// place; the box respected where the peak lies outside it; a parameter without its bound, step
+// or tolerance refused.
+TEST(PoseOptimizer, MaximizeParametersFindsAPeakWithinItsBox)
+{
+  const std::vector<double> peak = { 12.0, -7.5, 1.25 };
+  const auto objective = [&](const std::vector<double>& x)
+  { return -(std::pow(x[0] - peak[0], 2) + std::pow(x[1] - peak[1], 2) + 100.0 * std::pow(x[2] - peak[2], 2)); };
+  xp::ParameterSearch search;
+  search.lower = { -50.0, -50.0, -20.0 };
+  search.upper = { 50.0, 50.0, 20.0 };
+  search.step = { 5.0, 5.0, 2.0 };
+  search.tolerance = { 0.05, 0.05, 0.02 };
+  search.maxEvaluations = 2000;
+  std::vector<double> x = { 0.0, 0.0, 0.0 };
+  const xp::ParameterSearchResult found = xp::MaximizeParameters(objective, x, search);
+  EXPECT_TRUE(found.converged) << found.stopReason;
+  EXPECT_NEAR(x[0], peak[0], 0.1);
+  EXPECT_NEAR(x[1], peak[1], 0.1);
+  EXPECT_NEAR(x[2], peak[2], 0.04);
+  EXPECT_DOUBLE_EQ(found.value, objective(x));
+  EXPECT_GT(found.evaluations, 0);
+  search.upper[0] = 10.0; // the peak beyond the box: the search ends on its face
+  x = { 0.0, 0.0, 0.0 };
+  xp::MaximizeParameters(objective, x, search);
+  EXPECT_LE(x[0], 10.0);
+  EXPECT_NEAR(x[0], 10.0, 0.1);
+  search.tolerance.pop_back();
+  EXPECT_THROW(xp::MaximizeParameters(objective, x, search), xp::Error);
+}
+
 // The vertex step: onto a quadratic peak exactly, halfway down a cone, and not along an axis
 // whose values do not bracket a maximum; each axis moves towards its own peak (a sign flip or
 // an axis swap moves it away).
