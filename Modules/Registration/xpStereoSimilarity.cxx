@@ -26,43 +26,7 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
   return std::max(3.0, sigmaMM / view.pixelSpacing[0]);
 }
 
-/** The panel's pixel spacings shrunk by the magnification where the central ray passes the isocentre. */
-Eigen::Vector2d PixelSpacingsAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
-{
-  const double toIsocenter = (view.source - roomIsocenter).dot(view.NormalTowardsSource());
-  return view.pixelSpacing * toIsocenter / view.SourceToPanelDistance();
-}
-
 } // namespace
-
-double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter)
-{
-  return PixelSpacingsAtIsocenter(view, roomIsocenter).maxCoeff();
-}
-
-double CTSpacingAlong(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomDirection)
-{
-  const Eigen::Vector3d inCT = plannedCTToRoom.linear().transpose() * roomDirection.normalized();
-  return 1.0 / (volume.IndexToCT().linear().inverse() * inCT).norm();
-}
-
-RenderStride RenderStrideFor(const AttenuationVolume& volume, const std::vector<RegistrationView>& views,
-  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomIsocenter)
-{
-  const auto strideAlong = [&](const XRayView& view, int axis)
-  {
-    const Eigen::Vector3d& direction = axis == 0 ? view.rowDirection : view.columnDirection;
-    const double pixelAtIsocenter = PixelSpacingsAtIsocenter(view, roomIsocenter)[axis];
-    return 2.0 * pixelAtIsocenter <= 1.1 * CTSpacingAlong(volume, plannedCTToRoom, direction) ? 2 : 1;
-  };
-  RenderStride stride{ 2, 2 };
-  for (const RegistrationView& item : views)
-  {
-    stride.columns = std::min(stride.columns, strideAlong(item.view, 0));
-    stride.rows = std::min(stride.rows, strideAlong(item.view, 1));
-  }
-  return stride;
-}
 
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
   const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins, const SimilarityLevels& levels)
@@ -70,6 +34,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
   , Planned(plannedCTToRoom)
   , Isocenter(roomIsocenter)
   , Items(std::move(views))
+  , Projector(volume, Items)
   , Equalize(levels.equalize)
   , HighPassMM(levels.equalize ? levels.highPassSigmaMM : 0.0)
   , CorrelationMM(levels.correlationHighPassMM)
@@ -85,7 +50,6 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     {
       throw InputError("view " + item.view.name, "X-ray or mask size does not match the panel");
     }
-    this->Integrals.emplace_back(pixels);
     this->DRRs.emplace_back(pixels);
     this->DRRRanks.emplace_back(pixels);
     this->XRayRanks.push_back(this->Equalize ? EqualizedLevels(item.xray, item.mask) : std::vector<uint16_t>());
@@ -117,7 +81,6 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     this->DRRCorrelationLowPass.emplace_back(mask, columns, rows, this->CorrelationMM / item.view.pixelSpacing[0]);
   }
   this->Histograms.assign(this->Items.size(), JointHistogram(bins));
-  this->SetRenderStride(1);
   this->IntegralLevels.resize(this->Items.size());
   this->StructureLevels.resize(this->Items.size());
   this->Structure.resize(this->Items.size());
@@ -132,7 +95,7 @@ const std::vector<uint16_t>& StereoSimilarity::LastDRR(size_t v) const
   if (!this->DRRCurrent[v])
   {
     const RegistrationView& item = this->Items[v];
-    LineIntegralsTo12Bit(this->Integrals[v].data(), item.mask.empty() ? nullptr : item.mask.data(),
+    LineIntegralsTo12Bit(this->Projector.Integrals(v).data(), item.mask.empty() ? nullptr : item.mask.data(),
       static_cast<long long>(item.xray.size()), this->DRRs[v].data());
     this->DRRCurrent[v] = true;
   }
@@ -149,15 +112,15 @@ const std::vector<uint16_t>& StereoSimilarity::LastDRRLevels(size_t v) const
 
 void StereoSimilarity::SetDevice(ComputeDevice device)
 {
-  this->RayCast.device = device;
+  this->Projector.SetDevice(device);
   this->GPUMetric.reset();
   this->FetchLastDRRs();
 }
 
 bool StereoSimilarity::MeasuresOnGPU() const
 {
-  return this->RayCast.device == ComputeDevice::CUDA && this->Equalize && this->HighPassMM <= 0.0 && this->CorrelationMM <= 0.0 &&
-    this->Stride == RenderStride{} && this->Histograms.front().Bins() <= 64;
+  return this->Projector.Device() == ComputeDevice::CUDA && this->Equalize && this->HighPassMM <= 0.0 && this->CorrelationMM <= 0.0 &&
+    this->Projector.Stride() == RenderStride{} && this->Histograms.front().Bins() <= 64;
 }
 
 void StereoSimilarity::SetUpGPUMetric()
@@ -170,9 +133,9 @@ void StereoSimilarity::SetUpGPUMetric()
     const auto binOf = [bins](uint16_t level) { return static_cast<uint8_t>(static_cast<long long>(level) * bins / RankLevels); };
     GPUMutualInformation::View view;
     view.source = this->Items[v].view.source;
-    view.grid = this->Grids[v];
-    view.pixels = &this->Traced[v];
-    for (int pixel : this->Traced[v].Order())
+    view.grid = this->Projector.Grid(v);
+    view.pixels = &this->Projector.Traced(v);
+    for (int pixel : this->Projector.Traced(v).Order())
       view.xrayBins.push_back(binOf(this->XRayRanks[v][static_cast<size_t>(pixel)]));
     const LevelTable& levels = this->IntegralLevels[v];
     view.low = levels.Low();
@@ -189,11 +152,11 @@ void StereoSimilarity::FetchLastDRRs() const
   std::lock_guard<std::mutex> lock(this->FetchMutex);
   if (this->HostCurrent)
     return;
-  this->Render(this->LastPose);
+  this->Projector.Render(this->LastPose);
   for (size_t v = 0; v < this->Items.size(); ++v)
   {
     const uint8_t* mask = this->Items[v].mask.empty() ? nullptr : this->Items[v].mask.data();
-    const std::vector<float>& integral = this->Integrals[v];
+    const std::vector<float>& integral = this->Projector.Integrals(v);
     std::vector<uint16_t>& ranks = this->DRRRanks[v];
     for (size_t i = 0; i < integral.size(); ++i)
       ranks[i] = (mask && !mask[i]) ? 0 : this->IntegralLevels[v](integral[i]);
@@ -228,7 +191,7 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     return objective;
   }
   this->LastPose = ctToRoom;
-  const long long rays = this->Render(ctToRoom); // each DRR on every thread, or the views in one launch on the GPU
+  const long long rays = this->Projector.Render(ctToRoom); // each DRR on every thread, or the views in one launch on the GPU
   for (size_t v = 0; v < this->Items.size(); ++v)
     this->DRRCurrent[v] = false;
   const Clock::time_point rendered = Clock::now();
@@ -271,100 +234,15 @@ void StereoSimilarity::Measure(size_t v)
 
 void StereoSimilarity::SetRenderStride(const RenderStride& stride)
 {
-  for (int step : { stride.columns, stride.rows })
-    if (step < 1 || step > 8)
-      throw InputError("render stride", "must be 1 to 8, not " + std::to_string(step));
-  this->Stride = stride;
   this->GPUMetric.reset(); // its pixel lists are the old stride's
   this->FetchLastDRRs();
-  this->Grids.clear();
-  this->Traced.clear();
-  this->NodeIntegrals.clear();
-  const int sc = stride.columns, sr = stride.rows;
-  for (const RegistrationView& item : this->Items)
-  {
-    const DetectorGrid full = DetectorGrid::TopRowFirst(item.view);
-    if (sc == 1 && sr == 1)
-    {
-      this->Grids.push_back(full);
-      this->Traced.emplace_back(full.columns, full.rows, item.mask.empty() ? nullptr : item.mask.data());
-      continue;
-    }
-    // Node (c', r') sits on pixel (sc c', sr r'); the last nodes reach past the last pixel.
-    DetectorGrid grid = full;
-    grid.columnStep = sc * full.columnStep;
-    grid.rowStep = sr * full.rowStep;
-    grid.columns = (full.columns - 1 + sc - 1) / sc + 1;
-    grid.rows = (full.rows - 1 + sr - 1) / sr + 1;
-    std::vector<uint8_t> nodes(static_cast<size_t>(grid.columns) * grid.rows, 0);
-    for (int r = 0; r < full.rows; ++r)
-      for (int c = 0; c < full.columns; ++c)
-      {
-        if (!item.mask.empty() && !item.mask[static_cast<size_t>(r) * full.columns + c])
-          continue;
-        const int c0 = c / sc, r0 = r / sr;
-        const int c1 = c0 + (c % sc != 0), r1 = r0 + (r % sr != 0);
-        for (int rr : { r0, r1 })
-          for (int cc : { c0, c1 })
-            nodes[static_cast<size_t>(rr) * grid.columns + cc] = 1;
-      }
-    this->Grids.push_back(grid);
-    this->Traced.emplace_back(grid.columns, grid.rows, nodes.data());
-    this->NodeIntegrals.emplace_back(nodes.size(), 0.0f);
-  }
-}
-
-long long StereoSimilarity::Render(const Eigen::Isometry3d& ctToRoom) const
-{
-  const bool strided = !(this->Stride == RenderStride{});
-  std::vector<RenderTarget> targets;
-  for (size_t v = 0; v < this->Items.size(); ++v)
-    targets.push_back(RenderTarget{ this->Items[v].view.source, this->Grids[v], &this->Traced[v],
-      strided ? this->NodeIntegrals[v].data() : this->Integrals[v].data() });
-  const long long rays = RenderLineIntegrals(this->Volume, ctToRoom, targets, this->RayCast);
-  if (!strided)
-    return rays;
-  // The pixels between the nodes, bilinear; rows on all threads.
-  const int sc = this->Stride.columns, sr = this->Stride.rows;
-  const float columnStep = 1.0f / static_cast<float>(sc), rowStep = 1.0f / static_cast<float>(sr);
-  for (size_t v = 0; v < this->Items.size(); ++v)
-  {
-    const RegistrationView& item = this->Items[v];
-    const DetectorGrid& grid = this->Grids[v];
-    const float* nodes = this->NodeIntegrals[v].data();
-    float* out = this->Integrals[v].data();
-    const int columns = item.view.Columns();
-    ParallelFor(0, item.view.Rows(), 16,
-      [&](int firstRow, int lastRow)
-      {
-        for (int r = firstRow; r < lastRow; ++r)
-        {
-          const int r0 = r / sr, dr = r % sr;
-          const float fr = dr * rowStep;
-          const float* row0 = nodes + static_cast<size_t>(r0) * grid.columns;
-          const float* row1 = dr ? row0 + grid.columns : row0;
-          for (int c = 0; c < columns; ++c)
-          {
-            const size_t i = static_cast<size_t>(r) * columns + c;
-            if (!item.mask.empty() && !item.mask[i])
-              continue;
-            const int c0 = c / sc, dc = c % sc;
-            const int c1 = dc ? c0 + 1 : c0;
-            const float fc = dc * columnStep;
-            const float top = row0[c0] + fc * (row0[c1] - row0[c0]);
-            const float bottom = row1[c0] + fc * (row1[c1] - row1[c0]);
-            out[i] = top + fr * (bottom - top);
-          }
-        }
-      });
-  }
-  return rays;
+  this->Projector.SetStride(stride);
 }
 
 double StereoSimilarity::CorrelateDRR(size_t v)
 {
   const RegistrationView& item = this->Items[v];
-  const std::vector<float>& integral = this->Integrals[v];
+  const std::vector<float>& integral = this->Projector.Integrals(v);
   const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
   std::vector<float>& structure = this->Structure[v];
   // Negated: more matter, less transmission, a lower rank in the X-ray.
@@ -378,7 +256,7 @@ double StereoSimilarity::CorrelateDRR(size_t v)
 void StereoSimilarity::RankDRR(size_t v)
 {
   const RegistrationView& item = this->Items[v];
-  const std::vector<float>& integral = this->Integrals[v];
+  const std::vector<float>& integral = this->Projector.Integrals(v);
   const long long count = static_cast<long long>(integral.size());
   const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
   // The distributions at the first pose evaluated fix the levels for every later pose.

@@ -16,6 +16,7 @@
 #include "vtkXPRegistrationModule.h"
 
 #include "xpAttenuationVolume.h"
+#include "xpDRRProjector.h"
 #include "xpImageLevels.h"
 #include "xpMutualInformation.h"
 #include "xpPose.h"
@@ -28,14 +29,6 @@
 
 namespace xp
 {
-
-/** One view of a registration: its geometry, its X-ray and the pixels that count. */
-struct RegistrationView
-{
-  XRayView view;                 ///< the panel as rendered (size = the images' size)
-  std::vector<uint16_t> xray;    ///< row 0 first; 12-bit levels inside the registration
-  std::vector<uint8_t> mask;     ///< 1 = valid; empty = all valid
-};
 
 /** How MI sees the images (xpImageLevels.h). */
 struct SimilarityLevels
@@ -63,38 +56,6 @@ struct SimilarityCost
     return { drrs - earlier.drrs, rays - earlier.rays, renderSeconds - earlier.renderSeconds, metricSeconds - earlier.metricSeconds };
   }
 };
-
-/** The width of one of the view's pixels (the wider axis) where the central ray passes the
- *  isocentre: the panel's spacing shrunk by the magnification there. */
-VTKXPREGISTRATION_EXPORT double PixelSpacingAtIsocenter(const XRayView& view, const Eigen::Vector3d& roomIsocenter);
-
-/** Rays cast on every `columns`-th pixel along a row and on every `rows`-th row; the pixels
- *  between are interpolated bilinearly (StereoSimilarity::SetRenderStride). */
-struct RenderStride
-{
-  int columns = 1;
-  int rows = 1;
-  bool operator==(const RenderStride& other) const { return columns == other.columns && rows == other.rows; }
-};
-
-/** The CT's sample spacing along a room direction (at the planned pose): the voxel's extent along
- *  it, seen as the ellipsoid its spacings span (1/|A^-1 d| for the index-to-CT matrix A). Along a
- *  CT axis, that axis's spacing; 1 mm for an isotropic 1 mm CT in any direction. */
-VTKXPREGISTRATION_EXPORT double CTSpacingAlong(
-  const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomDirection);
-
-/**
- * The render stride (StereoSimilarity::SetRenderStride) for DRRs of `volume` on these views, per
- * panel axis: 2 where two pixels at the isocentre span no more than the CT's sample spacing along
- * that axis (CTSpacingAlong; within 10 %: over a body 300 mm deep the magnification varies by
- * about 15 % either side of the isocentre's), so that the rendered nodes are no farther apart than
- * the CT's own samples and bilinear interpolation between them loses no detail the CT holds;
- * otherwise 1. A CT of 0.9 mm pixels and 3 mm slices, seen on 0.52 mm pixels at the isocentre by
- * panels whose columns run along the slices, casts every column of every second row: the slices
- * allow nodes 1 mm apart along them, the pixels do not across.
- */
-VTKXPREGISTRATION_EXPORT RenderStride RenderStrideFor(const AttenuationVolume& volume, const std::vector<RegistrationView>& views,
-  const Eigen::Isometry3d& plannedCTToRoom, const Eigen::Vector3d& roomIsocenter);
 
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
 {
@@ -141,15 +102,12 @@ public:
    * pose and gets the views' MI back, and the last DRRs are rendered again only when asked for.
    */
   void SetDevice(ComputeDevice device);
-  ComputeDevice Device() const { return this->RayCast.device; }
+  ComputeDevice Device() const { return this->Projector.Device(); }
   /** Every later evaluation also adds its cost to `sink` (null: none); it must outlive this. */
   void SetCostSink(SimilarityCost* sink) { this->CostSink = sink; }
   const std::vector<RegistrationView>& Views() const { return this->Items; }
 
 private:
-  /** Line integrals of every view at the pose, into Integrals (on the GPU in one launch);
-   *  returns the rays cast. */
-  long long Render(const Eigen::Isometry3d& ctToRoom) const;
   /** Whether the objective can be measured on the GPU (SetDevice), and its set-up there once
    *  the levels are fixed. */
   bool MeasuresOnGPU() const;
@@ -169,15 +127,8 @@ private:
   Eigen::Vector3d Isocenter;
   std::vector<RegistrationView> Items;
   std::vector<JointHistogram> Histograms; ///< per view: the views' metrics run side by side
-  mutable std::vector<std::vector<float>> Integrals; ///< 0 at masked pixels, which are never traced
-  RenderStride Stride;
-  RayCastSettings RayCast;
-  /** Per view, built once per stride (the mask is fixed): where the rays are cast (the panel, or
-   *  every stride-th pixel's node), which of them (the valid pixels, or the nodes their
-   *  interpolation reads), and, with a stride, the nodes' line integrals. */
-  std::vector<DetectorGrid> Grids;
-  std::vector<TracedPixels> Traced;
-  mutable std::vector<std::vector<float>> NodeIntegrals;
+  /** The DRRs' line integrals at the last pose: the views' panels and masks are Items'. */
+  DRRProjector Projector;
   /** With equalised levels MI never reads the 12-bit DRRs: they are converted when asked for, not
    *  at every evaluation. */
   mutable std::vector<std::vector<uint16_t>> DRRs;

@@ -187,6 +187,48 @@ TEST(StereoSimilarity, RenderStrideCastsEveryNthRayAndInterpolatesBetween)
   EXPECT_THROW(wrong.SetRenderStride(xp::RenderStride{ 2, 9 }), xp::InputError);
 }
 
+// The projector on its own: each view's line integrals at a pose are the ray caster's for that
+// view (not the other's), 0 wherever the mask leaves a pixel out, every valid pixel's ray cast
+// once; a mask that does not cover its panel is refused.
+TEST(DRRProjector, CastsEachViewsValidRaysAtThePose)
+{
+  Scene scene;
+  std::vector<xp::RegistrationView> views = Simulate(scene, xp::Pose{}, 1);
+  for (xp::RegistrationView& item : views)
+  {
+    item.mask.assign(item.xray.size(), 1);
+    for (size_t i = 0; i < item.mask.size(); i += 3)
+      item.mask[i] = 0;
+  }
+  const xp::DRRProjector projector(scene.volume, views);
+  const Eigen::Isometry3d ctToRoom = xp::MisalignedCTToRoom(scene.planned, xp::Pose::Parse("3,-2,1.5,1,-1,2", "pose"),
+    Eigen::Vector3d::Zero());
+  const long long rays = projector.Render(ctToRoom);
+  long long valid = 0;
+  for (size_t v = 0; v < views.size(); ++v)
+  {
+    std::vector<float> expected(views[v].xray.size(), 0.0f);
+    xp::RenderLineIntegrals(scene.volume, ctToRoom, views[v].view.source, xp::DetectorGrid::TopRowFirst(views[v].view),
+      views[v].mask.data(), expected.data());
+    const std::vector<float>& integrals = projector.Integrals(v);
+    ASSERT_EQ(integrals.size(), expected.size());
+    double largest = 0.0, differs = 0.0;
+    for (size_t i = 0; i < expected.size(); ++i)
+    {
+      valid += views[v].mask[i];
+      if (!views[v].mask[i])
+        EXPECT_EQ(integrals[i], 0.0f) << "view " << v << " pixel " << i;
+      largest = std::max(largest, double(expected[i]));
+      differs = std::max(differs, std::abs(double(integrals[i]) - expected[i]));
+    }
+    EXPECT_GT(largest, 1.0) << "the phantom is in view " << v;
+    EXPECT_LT(differs, 1e-6) << "view " << v;
+  }
+  EXPECT_EQ(rays, valid);
+  views[1].mask.pop_back();
+  EXPECT_THROW(xp::DRRProjector(scene.volume, views), xp::InputError);
+}
+
 // Two pixels at the isocentre (the panel's pixel over the magnification, 1.5 here) against the CT's
 // sample spacing along each panel axis: the phantom's 2 mm voxels allow stride 2 at 256x192
 // (1.04 mm at the isocentre) and not at 240x180 (1.11 mm).
