@@ -28,6 +28,33 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
 
 } // namespace
 
+PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& levels)
+{
+  PreparedXRay prepared;
+  const size_t pixels = item.xray.size();
+  const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
+  if (levels.equalize)
+    prepared.levels = EqualizedLevels(item.xray, item.mask);
+  if (levels.correlationHighPassMM > 0.0)
+  {
+    const std::vector<uint16_t> ranks = levels.equalize ? prepared.levels : EqualizedLevels(item.xray, item.mask);
+    prepared.structure.assign(ranks.begin(), ranks.end());
+    SubtractLowPass(prepared.structure.data(), mask, item.view.Columns(), item.view.Rows(),
+      levels.correlationHighPassMM / item.view.pixelSpacing[0]);
+  }
+  if (levels.equalize && levels.highPassSigmaMM > 0.0)
+  {
+    // Ranks, less their shading, ranked again.
+    std::vector<float> structure(prepared.levels.begin(), prepared.levels.end());
+    SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), HighPassPixels(levels.highPassSigmaMM, item.view));
+    LevelTable table;
+    table.Build(structure.data(), mask, static_cast<long long>(pixels));
+    for (size_t i = 0; i < pixels; ++i)
+      prepared.levels[i] = (mask && !mask[i]) ? 0 : table(structure[i]);
+  }
+  return prepared;
+}
+
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
   const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins, const SimilarityLevels& levels)
   : Volume(volume)
@@ -52,26 +79,10 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     }
     this->DRRs.emplace_back(pixels);
     this->DRRRanks.emplace_back(pixels);
-    this->XRayRanks.push_back(this->Equalize ? EqualizedLevels(item.xray, item.mask) : std::vector<uint16_t>());
+    PreparedXRay prepared = PrepareXRay(item, levels);
+    this->XRayRanks.push_back(std::move(prepared.levels));
     if (this->CorrelationMM > 0.0)
-    {
-      const std::vector<uint16_t> ranks = this->Equalize ? this->XRayRanks.back() : EqualizedLevels(item.xray, item.mask);
-      std::vector<float> structure(ranks.begin(), ranks.end());
-      SubtractLowPass(structure.data(), item.mask.empty() ? nullptr : item.mask.data(), item.view.Columns(), item.view.Rows(),
-        this->CorrelationMM / item.view.pixelSpacing[0]);
-      this->XRayStructure.push_back(std::move(structure));
-    }
-    if (this->HighPassMM > 0.0)
-    {
-      // Ranks, less their shading, ranked again.
-      std::vector<float> structure(this->XRayRanks.back().begin(), this->XRayRanks.back().end());
-      const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
-      SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), HighPassPixels(this->HighPassMM, item.view));
-      LevelTable table;
-      table.Build(structure.data(), mask, static_cast<long long>(pixels));
-      for (size_t i = 0; i < pixels; ++i)
-        this->XRayRanks.back()[i] = (mask && !mask[i]) ? 0 : table(structure[i]);
-    }
+      this->XRayStructure.push_back(std::move(prepared.structure));
   }
   for (const RegistrationView& item : this->Items)
   {

@@ -57,6 +57,19 @@ struct SimilarityCost
   }
 };
 
+/** An X-ray as the metric sees it (SimilarityLevels), prepared once per registration. */
+struct PreparedXRay
+{
+  /** MI's levels: the equalised ranks over the valid pixels, less their shading and ranked again
+   *  with a high-pass; empty without equalisation (MI then reads the X-ray's own values). */
+  std::vector<uint16_t> levels;
+  /** With a correlation objective: the ranks less their low-pass (empty otherwise). */
+  std::vector<float> structure;
+};
+
+/** The X-ray's intensity preparation: its levels and structure as `levels` asks for them. */
+VTKXPREGISTRATION_EXPORT PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& levels);
+
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
 {
 public:
