@@ -87,6 +87,8 @@ void PrintStages(const StereoRegistrationResult& result, const std::vector<Regis
       result.table->keptTable ? result.table->withTable : result.table->bodyOnly,
       result.table->keptTable ? "the body alone" : "with it", result.table->keptTable ? result.table->bodyOnly : result.table->withTable,
       result.table->keptTable ? "with the table" : "the body alone");
+  else if (result.table && result.boneOnly)
+    std::printf("table: none to choose, the volume is a bone's: registered as given\n");
   else if (result.table)
     std::printf("table: nothing outside the body denser than %.0f HU: the CT registered as given\n", BodyMaskSettings{}.tableHU);
   std::printf("pre-alignment: %s, %d iterations (%.2f s)\nmasks: valid fraction", result.prealignment.pose.ToString().c_str(),
