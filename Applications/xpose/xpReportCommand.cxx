@@ -28,16 +28,7 @@ namespace
 RegistrationSources RecordedSources(const RegistrationRecordInputs& recorded, const std::string& recordPath)
 {
   RegistrationSources inputsOf;
-  inputsOf.ct = recorded.ct;
-  inputsOf.series = recorded.series;
-  inputsOf.voxelSize = recorded.voxelSize;
-  inputsOf.geometry = recorded.geometry;
-  inputsOf.xrays = recorded.xrays;
-  inputsOf.rois = recorded.rois;
-  inputsOf.size = recorded.size;
-  inputsOf.isocenterInCT = recorded.isocenterInCT;
-  inputsOf.muWater = recorded.muWater;
-  inputsOf.removeTable = recorded.removeTable;
+  static_cast<RegistrationFiles&>(inputsOf) = recorded;
   for (size_t v = 0; v < inputsOf.xrays.size(); ++v)
   {
     if (FileMD5(inputsOf.xrays[v]) != recorded.xrayMD5[v])

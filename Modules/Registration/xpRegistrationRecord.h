@@ -12,6 +12,7 @@
 
 #include "vtkXPRegistrationModule.h"
 
+#include "xpAttenuationVolume.h"
 #include "xpCouch.h"
 #include "xpStereoRegistration.h"
 
@@ -27,15 +28,28 @@ namespace xp
 inline constexpr const char* CorrectionConvention =
   "IEC 61217 fixed; p' = R(p - iso) + iso + t; R = Rz(yaw) Ry(roll) Rx(pitch)";
 
-/** The files and options a command registered; absolute paths. */
-struct RegistrationRecordInputs
+/** A registration's input files and the options that read them, as the options name them: what a
+ *  command registers (RegistrationSources) and what result.json's `inputs` keeps of it. */
+struct RegistrationFiles
 {
-  std::string ct, series, voxelSize, geometry; ///< voxelSize: a TIFF volume's "x,y,z" (mm)
-  std::vector<std::string> xrays, xrayMD5, rois;
-  std::string size, isocenterInCT;
-  double muWater = 0.0;
+  std::string ct;                   ///< DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (--ct)
+  std::string series;               ///< Series Instance UID when the folder holds several (--series)
+  std::string voxelSize;            ///< "x,y,z" mm, for a TIFF stack (--voxel-size)
+  std::string geometry;             ///< the stereo geometry JSON (--geometry)
+  std::vector<std::string> xrays;   ///< one per imager, in the geometry's order (--xray)
+  std::vector<std::string> rois;    ///< optional, one per X-ray (--roi)
+  std::string size;                 ///< registration resolution COLSxROWS, dividing the panel (--size)
+  std::string isocenterInCT;        ///< "x,y,z" LPS mm; empty: the CT's centre (--iso-ct)
+  double muWater = WaterAttenuationPerMM; ///< water's attenuation per mm (--mu-water)
+  bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
+};
+
+/** The files and options a command registered (absolute paths), each X-ray's MD5 and whether the
+ *  entropy masks were on: enough for `xpose report` to read them again and check they are the same. */
+struct RegistrationRecordInputs : RegistrationFiles
+{
+  std::vector<std::string> xrayMD5;
   bool entropyMask = true;
-  bool removeTable = false;
 };
 
 struct RegistrationRecord

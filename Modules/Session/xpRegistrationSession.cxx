@@ -141,22 +141,17 @@ RegistrationRecordInputs RecordedInputs(const RegistrationSources& sources, bool
 {
   const auto absolute = [](const std::string& path) { return std::filesystem::absolute(path).lexically_normal().string(); };
   RegistrationRecordInputs in;
-  in.ct = absolute(sources.ct);
-  in.series = sources.series;
-  in.voxelSize = sources.voxelSize;
-  in.geometry = absolute(sources.geometry);
-  for (const std::string& xray : sources.xrays)
+  static_cast<RegistrationFiles&>(in) = sources; // the files and options as given, then the paths made absolute
+  in.ct = absolute(in.ct);
+  in.geometry = absolute(in.geometry);
+  for (std::string& xray : in.xrays)
   {
-    in.xrays.push_back(absolute(xray));
     in.xrayMD5.push_back(FileMD5(xray));
+    xray = absolute(xray);
   }
-  for (const std::string& roi : sources.rois)
-    in.rois.push_back(absolute(roi));
-  in.size = sources.size;
-  in.isocenterInCT = sources.isocenterInCT;
-  in.muWater = sources.muWater;
+  for (std::string& roi : in.rois)
+    roi = absolute(roi);
   in.entropyMask = entropyMask;
-  in.removeTable = sources.removeTable;
   return in;
 }
 

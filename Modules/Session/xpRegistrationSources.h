@@ -16,6 +16,7 @@
 #include "xpAttenuationVolume.h"
 #include "xpCTVolume.h"
 #include "xpFieldOfView.h"
+#include "xpRegistrationRecord.h"
 #include "xpStereoGeometry.h"
 #include "xpStereoSimilarity.h"
 
@@ -40,19 +41,10 @@ struct CouchOptions
   ActionLevels levels;       ///< --action-level-mm/-deg, --max-uncorrected-mm/-deg
 };
 
-/** A registration's input files and how to read them, as the options name them. */
-struct RegistrationSources
+/** A registration's input files and how to read them (RegistrationFiles, which result.json's
+ *  `inputs` records), and the couch that carries out its result. */
+struct RegistrationSources : RegistrationFiles
 {
-  std::string ct;                   ///< DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (--ct)
-  std::string series;               ///< Series Instance UID when the folder holds several (--series)
-  std::string voxelSize;            ///< "x,y,z" mm, for a TIFF stack (--voxel-size)
-  std::string geometry;             ///< the stereo geometry JSON (--geometry)
-  std::vector<std::string> xrays;   ///< one per imager, in the geometry's order (--xray)
-  std::vector<std::string> rois;    ///< optional, one per X-ray (--roi)
-  std::string size;                 ///< registration resolution COLSxROWS, dividing the panel (--size)
-  std::string isocenterInCT;        ///< "x,y,z" LPS mm; empty: the CT's centre (--iso-ct)
-  double muWater = WaterAttenuationPerMM; ///< water's attenuation per mm (--mu-water)
-  bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
   CouchOptions couch;               ///< the couch that carries out an ok result, and the target
 };
 
