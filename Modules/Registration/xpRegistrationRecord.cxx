@@ -437,6 +437,33 @@ struct FieldCodec
   std::function<void(const Fields&, RegistrationRecord&)> read; ///< empty: derived from other fields
 };
 
+/** A field that is an object of the record's numbers, each under its key. */
+FieldCodec NumberObject(const RegistrationRecordField& field, std::vector<std::pair<const char*, double RegistrationRecord::*>> members,
+  std::function<bool(const RegistrationRecord&)> written = {})
+{
+  return { field, std::move(written),
+    [members](const RegistrationRecord& r)
+    {
+      Json::Value value(Json::objectValue);
+      for (const auto& [key, member] : members)
+        value[key] = r.*member;
+      return value;
+    },
+    [members, name = field.name](const Fields& f, RegistrationRecord& r)
+    {
+      for (const auto& [key, member] : members)
+        r.*member = f.Number(name + "." + key);
+    } };
+}
+
+/** A field of one of the record's numbers per view, each under its view's name. */
+FieldCodec PerViewField(const RegistrationRecordField& field, std::vector<double> RegistrationRecord::*member,
+  std::function<bool(const RegistrationRecord&)> written = {})
+{
+  return { field, std::move(written), [member](const RegistrationRecord& r) { return PerView(r.viewNames, r.*member); },
+    [member, name = field.name](const Fields& f, RegistrationRecord& r) { r.*member = f.PerViewNumbers(name, r.viewNames); } };
+}
+
 /** Whether a per-view field has a value for at least one named view. */
 template <typename T>
 bool AnyPerView(const RegistrationRecord& r, const std::vector<T>& values)
@@ -505,21 +532,15 @@ const std::vector<FieldCodec>& Codecs()
         r.similarity = f.PerViewNumbers("similarity", r.viewNames);
         r.objective = f.Number("similarity.objective");
       } },
-    { { "explained_information", "per view", "", "MI / H(X-ray) at the result", "always", true },
-      {}, [](const R& r) { return PerView(r.viewNames, r.explained); },
-      [](const Fields& f, R& r) { r.explained = f.PerViewNumbers("explained_information", r.viewNames); } },
-    { { "uncovered_fraction", "per view", "", "the valid pixels' share showing attenuation no ray of the CT meets", "always", true },
-      {}, [](const R& r) { return PerView(r.viewNames, r.uncovered); },
-      [](const Fields& f, R& r) { r.uncovered = f.PerViewNumbers("uncovered_fraction", r.viewNames); } },
-    { { "view_residual_mm", "per view", "mm", "how far the view's own 2D registration still moves the DRR", "always", true },
-      {}, [](const R& r) { return PerView(r.viewNames, r.viewResidualMM); },
-      [](const Fields& f, R& r) { r.viewResidualMM = f.PerViewNumbers("view_residual_mm", r.viewNames); } },
-    { { "mask_valid_fraction", "per view", "", "the pixels' share the masks keep", "always", true },
-      {}, [](const R& r) { return PerView(r.viewNames, r.validFraction); },
-      [](const Fields& f, R& r) { r.validFraction = f.PerViewNumbers("mask_valid_fraction", r.viewNames); } },
-    { { "xray_smoothing_px", "per view", "px", "the Gaussian sd each X-ray was smoothed by", "where smoothed" },
-      [](const R& r) { return !r.xraySmoothingPixels.empty(); }, [](const R& r) { return PerView(r.viewNames, r.xraySmoothingPixels); },
-      [](const Fields& f, R& r) { r.xraySmoothingPixels = f.PerViewNumbers("xray_smoothing_px", r.viewNames); } },
+    PerViewField({ "explained_information", "per view", "", "MI / H(X-ray) at the result", "always", true }, &R::explained),
+    PerViewField({ "uncovered_fraction", "per view", "", "the valid pixels' share showing attenuation no ray of the CT meets", "always", true },
+      &R::uncovered),
+    PerViewField({ "view_residual_mm", "per view", "mm", "how far the view's own 2D registration still moves the DRR", "always", true },
+      &R::viewResidualMM),
+    PerViewField({ "mask_valid_fraction", "per view", "", "the pixels' share the masks keep", "always", true },
+      &R::validFraction),
+    PerViewField({ "xray_smoothing_px", "per view", "px", "the Gaussian sd each X-ray was smoothed by", "where smoothed" },
+      &R::xraySmoothingPixels, [](const R& r) { return !r.xraySmoothingPixels.empty(); }),
     { { "ct_end_faces", "per view", "", "anatomy beyond each end slice of the CT, and whether those rays were left out",
         "with the coverage mask" },
       [](const R& r) { return AnyPerView(r, r.endFaces); },
@@ -589,43 +610,12 @@ const std::vector<FieldCodec>& Codecs()
         true },
       {}, [](const R& r) { return Json::Value(r.evaluations); },
       [](const Fields& f, R& r) { r.evaluations = static_cast<int>(f.Number("evaluations")); } },
-    { { "timing_s", "object", "s", "`read`, `prealign`, `mask`, `fine`, `total`", "always", true },
-      {},
-      [](const R& r)
-      {
-        Json::Value timing(Json::objectValue);
-        timing["read"] = r.readSeconds;
-        timing["prealign"] = r.prealignSeconds;
-        timing["mask"] = r.maskSeconds;
-        timing["fine"] = r.fineSeconds;
-        timing["total"] = r.totalSeconds;
-        return timing;
-      },
-      [](const Fields& f, R& r)
-      {
-        r.readSeconds = f.Number("timing_s.read");
-        r.prealignSeconds = f.Number("timing_s.prealign");
-        r.maskSeconds = f.Number("timing_s.mask");
-        r.fineSeconds = f.Number("timing_s.fine");
-        r.totalSeconds = f.Number("timing_s.total");
-      } },
-    { { "search_disagreement", "object", "mm, deg", "how far apart the two searches ended, and their objectives' ratio", "always",
-        true },
-      {},
-      [](const R& r)
-      {
-        Json::Value value(Json::objectValue);
-        value["mm"] = r.searchApartMM;
-        value["degrees"] = r.searchApartDegrees;
-        value["objective_ratio"] = r.searchObjectiveRatio;
-        return value;
-      },
-      [](const Fields& f, R& r)
-      {
-        r.searchApartMM = f.Number("search_disagreement.mm");
-        r.searchApartDegrees = f.Number("search_disagreement.degrees");
-        r.searchObjectiveRatio = f.Number("search_disagreement.objective_ratio");
-      } },
+    NumberObject({ "timing_s", "object", "s", "`read`, `prealign`, `mask`, `fine`, `total`", "always", true },
+      { { "read", &R::readSeconds }, { "prealign", &R::prealignSeconds }, { "mask", &R::maskSeconds }, { "fine", &R::fineSeconds },
+        { "total", &R::totalSeconds } }),
+    NumberObject({ "search_disagreement", "object", "mm, deg", "how far apart the two searches ended, and their objectives' ratio",
+                   "always", true },
+      { { "mm", &R::searchApartMM }, { "degrees", &R::searchApartDegrees }, { "objective_ratio", &R::searchObjectiveRatio } }),
     { { "peak_margin", "number", "", "the result's least lead over its held-out neighbours", "always" },
       {}, [](const R& r) { return Json::Value(r.peakMargin); }, [](const Fields& f, R& r) { r.peakMargin = f.Number("peak_margin"); } },
     { { "held_out_leads", "per axis", "", "each held-out neighbour's lead, [at -step, at +step]", "always" },
@@ -679,12 +669,10 @@ const std::vector<FieldCodec>& Codecs()
       } },
     // The median distance (mm at the isocentre) from the DRR's edges at the result to the X-ray's,
     // and with the DRR moved 3 mm: what the X-ray's edges alone would give (-1: no edges).
-    { { "edge_distance_mm", "per view", "mm", "the median distance from the DRR's edges to the X-ray's nearest edge", "where measured" },
-      [](const R& r) { return !r.edgeDistanceMM.empty(); }, [](const R& r) { return PerView(r.viewNames, r.edgeDistanceMM); },
-      [](const Fields& f, R& r) { r.edgeDistanceMM = f.PerViewNumbers("edge_distance_mm", r.viewNames); } },
-    { { "edge_distance_moved_3mm", "per view", "mm", "the same with the DRR moved 3 mm (chance)", "with edge_distance_mm" },
-      [](const R& r) { return !r.edgeDistanceMM.empty(); }, [](const R& r) { return PerView(r.viewNames, r.edgeDistanceShiftedMM); },
-      [](const Fields& f, R& r) { r.edgeDistanceShiftedMM = f.PerViewNumbers("edge_distance_moved_3mm", r.viewNames); } },
+    PerViewField({ "edge_distance_mm", "per view", "mm", "the median distance from the DRR's edges to the X-ray's nearest edge", "where measured" },
+      &R::edgeDistanceMM, [](const R& r) { return !r.edgeDistanceMM.empty(); }),
+    PerViewField({ "edge_distance_moved_3mm", "per view", "mm", "the same with the DRR moved 3 mm (chance)", "with edge_distance_mm" },
+      &R::edgeDistanceShiftedMM, [](const R& r) { return !r.edgeDistanceMM.empty(); }),
     { { "volume_to_room", "4x4 matrix", "mm", "the volume's own coordinates to room mm at the result, by rows",
         "when a command wrote it" },
       [](const R& r) { return r.volumeToRoom.has_value(); },
@@ -710,20 +698,9 @@ const std::vector<FieldCodec>& Codecs()
           f.Fail("volume_center", "must hold 3 numbers");
         r.volumeCenter = Eigen::Vector3d(center[0], center[1], center[2]);
       } },
-    { { "restarts_apart", "object", "mm, deg", "bones: the farthest of the restarted refinements from the result", "bones only" },
-      [](const R& r) { return r.restartsApartMM >= 0.0; },
-      [](const R& r)
-      {
-        Json::Value value(Json::objectValue);
-        value["mm"] = r.restartsApartMM;
-        value["degrees"] = r.restartsApartDegrees;
-        return value;
-      },
-      [](const Fields& f, R& r)
-      {
-        r.restartsApartMM = f.Number("restarts_apart.mm");
-        r.restartsApartDegrees = f.Number("restarts_apart.degrees");
-      } },
+    NumberObject({ "restarts_apart", "object", "mm, deg", "bones: the farthest of the restarted refinements from the result",
+                   "bones only" },
+      { { "mm", &R::restartsApartMM }, { "degrees", &R::restartsApartDegrees } }, [](const R& r) { return r.restartsApartMM >= 0.0; }),
     { { "bone_only", "bool", "", "whether the volume was matched as a bone cut out of a CT", "always" },
       {}, [](const R& r) { return Json::Value(r.boneOnly); }, [](const Fields& f, R& r) { r.boneOnly = f.Bool("bone_only"); } },
     { { "table", "object", "cm3", "the CT's table found, each CT's high-passed objective, and which was rendered",
