@@ -30,7 +30,8 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--search-render-stride", settings.searchRenderStride,
     "The same for the coarse searches' half-size DRRs (0: as for the refinement, for the CT they render; 1: every ray)")->capture_default_str();
   command->add_option("--quarter-size-travel", settings.quarterSizeTravel,
-    "The coarse searches travel on quarter-size images first, then end at half size (when the quarter is at least 128x96; searches 0.52x the time, but more false failed and three matrix cells over 0.05 mm worse: Performance.md)")
+    "The coarse searches travel on quarter-size images first, then end at half size (when the quarter is at least 128x96; "
+    "faster searches, less accurate on the standard schedule's own stops: Performance.md, \"Quarter-size travel\")")
     ->capture_default_str();
   command
     ->add_option_function<std::string>(

@@ -519,8 +519,8 @@ constexpr double EntropyLevelsPerNoiseSigma = 16.0;
  * smoothed by a Gaussian of sd `sigmaPixels`: the smoothing makes neighbours alike (correlation
  * exp(-1 / (4 sigma^2)) at one pixel), so their differences shrink more than the noise does. The
  * entropy mask scales its levels by it, so that its bins stay two noise sd wide; without it the
- * mask took smoothed noise for structure (the processed pelvis kept 30 k pixels whose DRR
- * explained 4-5 % of the X-ray).
+ * mask took smoothed noise for structure (on the processed pelvis it kept many pixels the DRR
+ * explained almost nothing of; Algorithms.md).
  */
 double NeighbourNoiseShare(double sigmaPixels)
 {

@@ -87,14 +87,13 @@ struct StereoRegistrationSettings
   int fineRenderStride = 0;
   /** The same for the coarse searches' half-size DRRs (of the half-resolution CT where used);
    *  every ray by default: at stride 2 the coarser searches left the refinement more to do, and
-   *  the whole registration gained 5 % (Performance.md). */
+   *  the whole registration gained little (Performance.md). */
   int searchRenderStride = 1;
   /** The coarse searches travel on quarter-size images first (from the half-size CT), then go
    *  on at half size from where they stopped, when the quarter is at least 128x96: a
-   *  quarter-size pair casts a fifth of the rays, and the searches take 0.52x the time on the
-   *  pelvis. Off by default: on the generalisation matrix 5 of 500 accurate results failed
-   *  instead of 1, and three cells' median mTRE grew by more than 0.05 mm (Performance.md,
-   *  "Quarter-size travel"). */
+   *  quarter-size pair casts a fifth of the rays. Off in the standard schedule, where it cost
+   *  accurate results and accuracy on the generalisation matrix (Performance.md, "Quarter-size
+   *  travel"); the economy schedule travels so with its own stops. */
   bool quarterSizeTravel = false;
   /** The schedule of the searches and the refinement (MakeSchedule): the economy one (the
    *  default: quarter-size travel, looser stops, one restart) or the standard one it replaced
