@@ -187,10 +187,7 @@ int RunTrack(const TrackOptions& options)
     frame.outputDirectory = output.Path(FrameName(f));
     if (!options.reportDirectory.empty())
       frame.reportDirectory = options.reportDirectory + "/" + FrameName(f);
-    const int code = RunRegister(frame);
-    if (code != ExitOk && code != ExitRegistrationFailed)
-      return code;
-    const RegistrationRecord record = ReadRegistrationRecord(frame.outputDirectory + "/result.json");
+    const RegistrationRecord record = RegisterFiles(frame); // the frame's folder written, its record returned
     allOk = allOk && record.ok;
     previousOk = record.ok;
     // The next frame starts where this one ended: a motion between frames is small, and a failed
@@ -206,6 +203,7 @@ int RunTrack(const TrackOptions& options)
   std::ofstream(output.Path("poses.csv")) << csv.str();
   Json::StreamWriterBuilder writer;
   writer["indentation"] = "  ";
+  writer["precision"] = 10; // as result.json's: micrometres on a metre, no binary noise
   std::ofstream(output.Path("poses.json")) << Json::writeString(writer, poses) << "\n";
   output.Commit();
   std::printf("wrote poses.csv and poses.json (%zu frames, %s) to %s\n", frames.size(), allOk ? "all ok" : "NOT all ok",
