@@ -2,7 +2,7 @@
 """Registers a planning CT to stereo X-rays with the xpose VTK filters and prints the result
 record (the JSON of result.json, without its inputs) on standard output.
 
-    register.py --ct DICOM_FOLDER --geometry FILE --xray A.png --xray B.png [--size 512x384]
+    register.py --ct DICOM_FOLDER --geometry FILE --xray A.png --xray B.png [--size 512x384] [--keep-table]
 
 Exit code 0: ok; 3: the registration failed its quality gate; 2: bad input. The pipeline is the
 one `xpose register` runs: DICOM reader -> stereo registration filter.
@@ -23,6 +23,8 @@ def main():
     parser.add_argument("--xray", action="append", required=True, help="12-bit PNG per imager, in order")
     parser.add_argument("--size", default="", help="registration size COLSxROWS, dividing the panels")
     parser.add_argument("--no-entropy-mask", action="store_true", help="register the whole images")
+    parser.add_argument("--keep-table", action="store_true",
+                        help="render the CT as it is (by default, as xpose register: its table kept or left out as the X-rays show it)")
     args = parser.parse_args()
 
     ct = xpose.vtkXPDICOMCTReader()
@@ -48,6 +50,7 @@ def main():
         columns = int(args.size.split("x")[0])
         registration.SetShrinkFactor(readers[0].GetOutput().GetDimensions()[0] // columns)
     registration.SetEntropyMask(not args.no_entropy_mask)
+    registration.SetChooseTable(not args.keep_table)
     registration.Update()
     record = registration.GetResultJSON()
     refused = [f["message"] for f in json.loads(record)["failures"] if f["code"] == "invalid_input"]

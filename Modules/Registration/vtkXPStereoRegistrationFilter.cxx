@@ -107,6 +107,15 @@ void vtkXPStereoRegistrationFilter::SetEntropyMask(bool on)
   }
 }
 
+void vtkXPStereoRegistrationFilter::SetChooseTable(bool on)
+{
+  if (on != this->Settings.chooseTable)
+  {
+    this->Settings.chooseTable = on;
+    this->Modified();
+  }
+}
+
 void vtkXPStereoRegistrationFilter::SetResult(xp::StereoRegistrationResult result)
 {
   this->Result = std::move(result);

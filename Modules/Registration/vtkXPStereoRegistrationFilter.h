@@ -81,6 +81,10 @@ public:
   void SetIsocenterInCT(double x, double y, double z);
   void SetEntropyMask(bool on);
   bool GetEntropyMask() const { return this->Settings.entropyMask; }
+  /** The CT with its table or the body alone, whichever the X-rays match better
+   *  (StereoRegistrationSettings::chooseTable; `xpose register`'s default); off: the CT as given. */
+  void SetChooseTable(bool on);
+  bool GetChooseTable() const { return this->Settings.chooseTable; }
   /** After an update: ok (the correction may be applied) or failed. */
   bool GetResultOk() const { return this->Result.ok; }
   /** tx, ty, tz (mm), pitch, roll, yaw (degrees) in Room terms (Coordinates.md). */
