@@ -227,7 +227,9 @@ RegistrationRecord RegisterFiles(const RegisterOptions& options)
   std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), inputs.views.size(),
     inputs.views[0].view.Columns(), inputs.views[0].view.Rows(), readSeconds);
   if (options.removeTable)
-    std::printf("table: %lld voxels outside the body set to air\n", inputs.tableVoxelsRemoved);
+    std::printf("table: %lld voxels outside the body set to air (--remove-table)\n", inputs.tableVoxelsRemoved);
+  else if (!options.settings.chooseTable)
+    std::printf("table: the CT rendered as it is, anything outside the body included (--keep-table)\n");
   for (size_t v = 0; v < inputs.binning.size(); ++v)
     if (inputs.binning[v][0] > 1 || inputs.binning[v][1] > 1)
       std::printf("view %s: the X-ray is the panel read out binned %dx%d (%dx%d pixels of %.3f x %.3f mm)\n",
