@@ -60,7 +60,13 @@ void AddTableOptions(CLI::App* command, bool& chooseTable, bool& removeTable)
     "X-rays' better there (the CT's table shows in a renderer's X-rays, never in a room's; result.json `table`)");
   CLI::Option* keep = command->add_flag_callback("--keep-table", [&chooseTable] { chooseTable = false; },
     "Render DRRs from the CT as it is, its table included");
-  CLI::Option* remove = command->add_flag_callback("--remove-table", [&chooseTable, &removeTable] { chooseTable = false, removeTable = true; },
+  CLI::Option* remove = command->add_flag_callback(
+    "--remove-table",
+    [&chooseTable, &removeTable]
+    {
+      chooseTable = false;
+      removeTable = true;
+    },
     "Render DRRs from the body alone: the CT's table (and anything else apart from the body) set to air");
   choose->excludes(keep)->excludes(remove);
   keep->excludes(remove);
