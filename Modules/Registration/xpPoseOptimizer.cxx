@@ -172,10 +172,7 @@ PoseOptimizerResult MaximizePose(
       MaximizeParameters(ofParameters, from, PoseSearch(start, settings, settings.maxEvaluations - evaluations));
     evaluations += found.evaluations;
     PoseOptimizerResult result;
-    result.value = found.value;
-    result.converged = found.converged;
-    result.reachedTarget = found.reachedTarget;
-    result.stopReason = found.stopReason;
+    static_cast<ParameterSearchResult&>(result) = found;
     return result;
   };
   PoseOptimizerResult result = run(x);

@@ -51,15 +51,6 @@ struct PoseOptimizerSettings
   std::function<bool(const Pose&, double)> stopWhen;
 };
 
-struct PoseOptimizerResult
-{
-  Pose pose;
-  double value = 0.0;
-  int evaluations = 0;
-  bool converged = false;  ///< stopped on the tolerances or at stopWhen, not on the evaluation limit
-  bool reachedTarget = false; ///< stopped at stopWhen
-  std::string stopReason;
-};
 
 /** One bounded search over any number of parameters (each vector holds one value per parameter). */
 struct ParameterSearch
@@ -80,6 +71,12 @@ struct ParameterSearchResult
   bool converged = false;     ///< stopped on the tolerances or at stopWhen, not on the evaluation limit
   bool reachedTarget = false; ///< stopped at stopWhen
   std::string stopReason;
+};
+
+/** A 6-DOF search's end: the pose, and its search's figures (evaluations: all its restarts'). */
+struct PoseOptimizerResult : ParameterSearchResult
+{
+  Pose pose;
 };
 
 /** Maximises `objective` from `x` (the result is left there) within `search`'s box; throws

@@ -31,7 +31,9 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
 PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& levels)
 {
   PreparedXRay prepared;
-  const size_t pixels = item.xray.size();
+  const size_t pixels = static_cast<size_t>(item.view.Columns()) * item.view.Rows();
+  if (item.xray.size() != pixels || (!item.mask.empty() && item.mask.size() != pixels))
+    throw InputError("view " + item.view.name, "X-ray or mask size does not match the panel");
   const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
   if (levels.equalize)
     prepared.levels = EqualizedLevels(item.xray, item.mask);
@@ -81,8 +83,7 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
     this->DRRRanks.emplace_back(pixels);
     PreparedXRay prepared = PrepareXRay(item, levels);
     this->XRayRanks.push_back(std::move(prepared.levels));
-    if (this->CorrelationMM > 0.0)
-      this->XRayStructure.push_back(std::move(prepared.structure));
+    this->XRayStructure.push_back(std::move(prepared.structure)); // empty without a correlation objective
   }
   for (const RegistrationView& item : this->Items)
   {

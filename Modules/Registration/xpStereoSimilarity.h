@@ -67,7 +67,8 @@ struct PreparedXRay
   std::vector<float> structure;
 };
 
-/** The X-ray's intensity preparation: its levels and structure as `levels` asks for them. */
+/** The X-ray's intensity preparation: its levels and structure as `levels` asks for them; throws
+ *  xp::InputError when the X-ray or its mask does not cover the view's panel. */
 VTKXPREGISTRATION_EXPORT PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& levels);
 
 class VTKXPREGISTRATION_EXPORT StereoSimilarity

@@ -58,18 +58,18 @@ public:
   ///@{
   /** The CT's table, as register's options: by default the CT with its table or the body alone,
    *  whichever the X-rays match better (--choose-table; result.json `table`); SetKeepTable renders
-   *  the CT as it is (--keep-table), SetRemoveTable the body alone (--remove-table). Choosing and
-   *  removing at once is refused by Run. */
+   *  the CT as it is (--keep-table), SetRemoveTable the body alone (--remove-table); either with
+   *  false restores the default. Choosing and removing at once is refused by Run. */
   void SetChooseTable(bool on) { this->ChooseTable = on; }
   void SetKeepTable(bool on)
   {
     this->ChooseTable = !on;
-    this->RemoveTable = this->RemoveTable && !on;
+    this->RemoveTable = false;
   }
   void SetRemoveTable(bool on)
   {
     this->RemoveTable = on;
-    this->ChooseTable = this->ChooseTable && !on;
+    this->ChooseTable = !on;
   }
   ///@}
 

@@ -80,6 +80,12 @@ both.SetSize("256x192")
 both.SetRemoveTable(True)
 both.SetChooseTable(True)
 assert both.Run() == -1 and "--choose-table" in both.GetLastError(), both.GetLastError()
+# Keeping the table registers the CT as given: no choice in the record; false restores the choice.
+both.SetKeepTable(True)
+assert both.Run() >= 0, both.GetLastError()
+assert "table" not in json.loads(both.GetResultJSON()), "--keep-table still chose"
+both.SetKeepTable(False)
+assert both.Run() >= 0 and "table" in json.loads(both.GetResultJSON()), both.GetLastError()
 
 def without_times(record):
     record.pop("timing_s")
