@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <fstream>
 #include <memory>
@@ -471,16 +472,11 @@ bool AnyPerView(const RegistrationRecord& r, const std::vector<T>& values)
   return !r.viewNames.empty() && !values.empty();
 }
 
-/**
- * result.json, field by field, in the order the reader takes them (the status and the views' names
- * before what depends on them). A row says what the field is, when it is written, whether a record
- * without it is refused, and how it is written and read; RegistrationRecordJSON and
- * ParseRegistrationRecord only walk this table.
- */
-const std::vector<FieldCodec>& Codecs()
+/** result.json's rows, part 1: The answer: the verdict, the poses, the views and the similarity at the result. */
+std::vector<FieldCodec> AnswerCodecs()
 {
   using R = RegistrationRecord;
-  static const std::vector<FieldCodec> codecs{
+  return {
     { { "status", "text", "", "ok: the couch may be moved by the answer; failed: it may not", "always", true },
       {}, [](const R& r) { return Json::Value(r.ok ? "ok" : "failed"); },
       [](const Fields& f, R& r)
@@ -541,6 +537,14 @@ const std::vector<FieldCodec>& Codecs()
       &R::validFraction),
     PerViewField({ "xray_smoothing_px", "per view", "px", "the Gaussian sd each X-ray was smoothed by", "where smoothed" },
       &R::xraySmoothingPixels, [](const R& r) { return !r.xraySmoothingPixels.empty(); }),
+  };
+}
+
+/** result.json's rows, part 2: How the images were used: the CT's end faces, the renders, the evaluations and the times. */
+std::vector<FieldCodec> RunCodecs()
+{
+  using R = RegistrationRecord;
+  return {
     { { "ct_end_faces", "per view", "", "anatomy beyond each end slice of the CT, and whether those rays were left out",
         "with the coverage mask" },
       [](const R& r) { return AnyPerView(r, r.endFaces); },
@@ -616,6 +620,14 @@ const std::vector<FieldCodec>& Codecs()
     NumberObject({ "search_disagreement", "object", "mm, deg", "how far apart the two searches ended, and their objectives' ratio",
                    "always", true },
       { { "mm", &R::searchApartMM }, { "degrees", &R::searchApartDegrees }, { "objective_ratio", &R::searchObjectiveRatio } }),
+  };
+}
+
+/** result.json's rows, part 3: The gate's evidence around the result: the held-out leads, the halves, the edges. */
+std::vector<FieldCodec> EvidenceCodecs()
+{
+  using R = RegistrationRecord;
+  return {
     { { "peak_margin", "number", "", "the result's least lead over its held-out neighbours", "always" },
       {}, [](const R& r) { return Json::Value(r.peakMargin); }, [](const Fields& f, R& r) { r.peakMargin = f.Number("peak_margin"); } },
     { { "held_out_leads", "per axis", "", "each held-out neighbour's lead, [at -step, at +step]", "always" },
@@ -673,6 +685,14 @@ const std::vector<FieldCodec>& Codecs()
       &R::edgeDistanceMM, [](const R& r) { return !r.edgeDistanceMM.empty(); }),
     PerViewField({ "edge_distance_moved_3mm", "per view", "mm", "the same with the DRR moved 3 mm (chance)", "with edge_distance_mm" },
       &R::edgeDistanceShiftedMM, [](const R& r) { return !r.edgeDistanceMM.empty(); }),
+  };
+}
+
+/** result.json's rows, part 4: Where the volume lies in the room, and what of the CT was rendered. */
+std::vector<FieldCodec> PlacementCodecs()
+{
+  using R = RegistrationRecord;
+  return {
     { { "volume_to_room", "4x4 matrix", "mm", "the volume's own coordinates to room mm at the result, by rows",
         "when a command wrote it" },
       [](const R& r) { return r.volumeToRoom.has_value(); },
@@ -734,6 +754,14 @@ const std::vector<FieldCodec>& Codecs()
           f.Fail("table.rendered_from", "must be \"ct\" or \"body_only\"");
         table.keptTable = from == "ct";
       } },
+  };
+}
+
+/** result.json's rows, part 5: Why it failed, the couch's motion, the inputs, and the run's trace and schedule. */
+std::vector<FieldCodec> VerdictCodecs()
+{
+  using R = RegistrationRecord;
+  return {
     { { "failures", "list", "", "why the gate failed: each {code, view, message}; empty exactly when ok", "always", true },
       {},
       [](const R& r)
@@ -798,6 +826,26 @@ const std::vector<FieldCodec>& Codecs()
     { { "schedule", "list", "", "the stages as scheduled, in order, each with its optimiser's budget", "always" },
       {}, [](const R& r) { return ScheduleValue(r.schedule); }, ReadSchedule },
   };
+}
+
+/**
+ * result.json, field by field, in the order the reader takes them (the status and the views' names
+ * before what depends on them). A row says what the field is, when it is written, whether a record
+ * without it is refused, and how it is written and read; RegistrationRecordJSON and
+ * ParseRegistrationRecord only walk this table: its five parts above, in their order.
+ */
+const std::vector<FieldCodec>& Codecs()
+{
+  static const std::vector<FieldCodec> codecs = []
+  {
+    std::vector<FieldCodec> all;
+    for (std::vector<FieldCodec> (*part)() : { AnswerCodecs, RunCodecs, EvidenceCodecs, PlacementCodecs, VerdictCodecs })
+    {
+      std::vector<FieldCodec> rows = part();
+      all.insert(all.end(), std::make_move_iterator(rows.begin()), std::make_move_iterator(rows.end()));
+    }
+    return all;
+  }();
   return codecs;
 }
 
