@@ -103,7 +103,7 @@ int RunBenchDRR(const BenchOptions& options)
     throw InputError("--repetitions", "must be at least 1");
   }
   const ComputeDevice device = UseDevice(options.device);
-  DRRSetup setup = MakeDRRSetup(options.ct, options.series, "", options.geometry, "", WaterAttenuationPerMM, "trilinear", 0.0);
+  DRRSetup setup = MakeDRRSetup(options.ct, options.series, std::nullopt, options.geometry, std::nullopt, WaterAttenuationPerMM, "trilinear", 0.0);
   vtkImageData* ct = setup.ct.image;
   int dims[3];
   ct->GetDimensions(dims);

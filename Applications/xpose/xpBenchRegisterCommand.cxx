@@ -223,7 +223,7 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   settings.seed = options.seed;
   settings.range = { options.minTranslation, options.maxTranslation, options.maxRotation };
   settings.successMTRE = 1.0;
-  settings.shrinkFactor = RegistrationShrinkFactor(geometry.views, options.size);
+  settings.shrinkFactor = RegistrationShrinkFactor(geometry.views, ParseSizeIfGiven(options.size, "--size"));
   settings.registration.entropyMask = true;
   settings.registration.chooseTable = options.chooseTable;
   settings.registration.device = UseDevice(options.device);

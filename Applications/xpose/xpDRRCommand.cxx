@@ -1,4 +1,5 @@
 #include "xpCommands.h"
+#include "xpVolumeIO.h"
 #include "xpRegistrationWriters.h"
 
 #include "xpError.h"
@@ -202,8 +203,15 @@ int RunDRR(const DRROptions& options)
   {
     size = ParseSize(options.size, "--size");
   }
+  const std::optional<Eigen::Vector3d> isocenterInCT = ParsePointIfGiven(options.isocenterInCT, "--iso-ct");
+  std::optional<Eigen::Vector3d> voxelSize;
+  if (!options.voxelSize.empty())
+  {
+    const std::array<double, 3> given = ParseVoxelSize(options.voxelSize, "--voxel-size");
+    voxelSize = Eigen::Vector3d(given[0], given[1], given[2]);
+  }
   const auto readStart = std::chrono::steady_clock::now();
-  DRRSetup setup = MakeDRRSetup(options.ct, options.series, options.voxelSize, options.geometry, options.isocenterInCT, options.muWater,
+  DRRSetup setup = MakeDRRSetup(options.ct, options.series, voxelSize, options.geometry, isocenterInCT, options.muWater,
     options.method, options.stepSize);
   const double readSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - readStart).count();
   vtkXPDRRFilter* drr = setup.filter;

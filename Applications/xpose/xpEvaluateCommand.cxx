@@ -178,7 +178,7 @@ int RunEvaluate(const EvaluateOptions& options)
   ValidateStereoGeometry(geometry, options.geometry);
   const CTVolume ct = ReadCTVolume(options.ct, options.series);
   const PatientSetup patient{ ParsePatientPosition(ct.patientPosition, options.ct), std::nullopt, geometry.isocenter };
-  settings.shrinkFactor = RegistrationShrinkFactor(geometry.views, options.size);
+  settings.shrinkFactor = RegistrationShrinkFactor(geometry.views, ParseSizeIfGiven(options.size, "--size"));
   const XRayView& first = geometry.views[0];
   const std::string size =
     std::to_string(first.Columns() / settings.shrinkFactor) + "x" + std::to_string(first.Rows() / settings.shrinkFactor);

@@ -1,18 +1,62 @@
 // xpose: stereo X-ray 2D/3D registration. main() only parses; the work is in xpCommands.
 #include "xpCommands.h"
+#include "xpError.h"
+#include "xpValueText.h"
+#include "xpVolumeIO.h"
 
 #include <CLI/CLI.hpp>
 
 namespace
 {
 
-/** The registration method's options, bound to the settings the registration filter takes. */
 constexpr const char* VoxelSizeHelp = "A TIFF stack's voxel size x,y,z (mm): columns along x, rows along y, pages along z "
                                       "(first page lowest); values proportional to attenuation, 0 air, 1000 water";
 
 constexpr const char* DeviceHelp = "Where the DRRs' rays are cast: cpu, cuda (an NVIDIA GPU; refused without one) or "
                                    "auto (the GPU where one is usable, else the CPU)";
 
+/** An option whose text is parsed here, once, into a typed value: `parse` throws xp::InputError
+ *  naming the option, which the parser reports as bad input (exit 2). */
+template <typename T, typename Parse>
+CLI::Option* AddParsedOption(CLI::App* command, const std::string& name, std::optional<T>& value, Parse parse, const std::string& help)
+{
+  return command->add_option_function<std::string>(name,
+    [&value, parse, name](const std::string& text)
+    {
+      try
+      {
+        value = parse(text, name);
+      }
+      catch (const xp::InputError& error)
+      {
+        throw CLI::ValidationError(error.what());
+      }
+    },
+    help);
+}
+
+CLI::Option* AddPointOption(CLI::App* command, const std::string& name, std::optional<Eigen::Vector3d>& point, const std::string& help)
+{
+  return AddParsedOption(command, name, point, xp::ParsePoint, help);
+}
+
+CLI::Option* AddSizeOption(CLI::App* command, const std::string& name, std::optional<Eigen::Vector2i>& size, const std::string& help)
+{
+  return AddParsedOption(command, name, size, xp::ParseImageSize, help);
+}
+
+CLI::Option* AddVoxelSizeOption(CLI::App* command, std::optional<Eigen::Vector3d>& voxelSize)
+{
+  return AddParsedOption(command, "--voxel-size", voxelSize,
+    [](const std::string& text, const std::string& name)
+    {
+      const std::array<double, 3> size = xp::ParseVoxelSize(text, name);
+      return Eigen::Vector3d(size[0], size[1], size[2]);
+    },
+    VoxelSizeHelp);
+}
+
+/** The registration method's options, bound to the settings the registration filter takes. */
 void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
 {
   command->add_option("--bins", settings.bins, "MI histogram bins")->capture_default_str();
@@ -261,7 +305,7 @@ void AddCouchOptions(CLI::App* command, xp::CouchOptions& couch)
     "The couch's motions: 6dof or 4dof (translations and yaw); default: the geometry file's couch, else 6dof");
   command->add_option("--couch-rotation-limit", couch.rotationLimit,
     "The largest pitch and roll the couch turns, each way, degrees (default: the geometry file's, else none)");
-  command->add_option("--target", couch.target,
+  AddPointOption(command, "--target", couch.target,
     "The CT point x,y,z (LPS mm) the couch motion puts back exactly (default: the planned isocentre)");
   command->add_option("--action-level-mm", couch.levels.actionMM,
     "No move is needed when the couch motion is within this translation and --action-level-deg (0: every motion is a move)")
@@ -279,11 +323,11 @@ void AddRegistrationOptions(CLI::App* command, xp::RegisterOptions& options)
 {
   command->add_option("--ct", options.ct, "CT: DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (or --pacs)");
   command->add_option("--series", options.series, "Series Instance UID when the folder holds several");
-  command->add_option("--voxel-size", options.voxelSize, VoxelSizeHelp);
+  AddVoxelSizeOption(command, options.voxelSize);
   command->add_option("--geometry", options.geometry, "Stereo geometry JSON")->required();
   command->add_flag("!--no-entropy-mask", options.settings.entropyMask, "Register the whole image (no entropy mask)");
-  command->add_option("--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
-  command->add_option("--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
+  AddSizeOption(command, "--size", options.size, "Registration resolution COLSxROWS (divides the panel)");
+  AddPointOption(command, "--iso-ct", options.isocenterInCT, "CT point x,y,z (LPS mm) at the isocentre");
   command->add_option("--initial-pose", options.initialPose,
     "Start the search here: tx,ty,tz,pitch,roll,yaw (mm, degrees), the terms of result.json's misalignment; "
     "--max-translation and --max-rotation then bound the change from it");

@@ -1,6 +1,7 @@
 #include "xpRegistrationRecord.h"
 
 #include "xpError.h"
+#include "xpValueText.h"
 #include "xpWholeFile.h"
 
 #include <vtk_jsoncpp.h>
@@ -91,13 +92,13 @@ Json::Value InputsValue(const RegistrationRecordInputs& in)
   Json::Value inputs(Json::objectValue);
   inputs["ct"] = in.ct;
   inputs["series"] = in.series;
-  inputs["voxel_size"] = in.voxelSize;
+  inputs["voxel_size"] = in.voxelSize ? PointText(*in.voxelSize) : "";
   inputs["geometry"] = in.geometry;
   inputs["xrays"] = List(in.xrays);
   inputs["xray_md5"] = List(in.xrayMD5);
   inputs["rois"] = List(in.rois);
-  inputs["size"] = in.size;
-  inputs["iso_ct"] = in.isocenterInCT;
+  inputs["size"] = in.size ? SizeText(*in.size) : "";
+  inputs["iso_ct"] = in.isocenterInCT ? PointText(*in.isocenterInCT) : "";
   inputs["mu_water"] = in.muWater;
   inputs["entropy_mask"] = in.entropyMask;
   inputs["remove_table"] = in.removeTable;
@@ -245,6 +246,9 @@ public:
       values.push_back(this->Number(field + "." + name));
     return values;
   }
+  /** The file and the field, as Fail names them: for a parser that throws its own refusal. */
+  std::string Where(const std::string& field) const { return this->Origin + ": field '" + field + "'"; }
+
   [[noreturn]] void Fail(const std::string& field, const std::string& what) const
   {
     throw InputError(this->Origin, "field '" + field + "' " + what);
@@ -321,14 +325,22 @@ RegistrationRecordInputs InputsAt(const Fields& f, const Json::Value& inputs)
   RegistrationRecordInputs in;
   in.ct = f.Text("inputs.ct");
   in.series = f.Text("inputs.series");
-  if (inputs.isMember("voxel_size")) // absent in records written before TIFF volumes
-    in.voxelSize = f.Text("inputs.voxel_size");
+  // Each written as its option is given, empty where it was not; voxel_size is absent in records
+  // written before TIFF volumes.
+  if (inputs.isMember("voxel_size") && !f.Text("inputs.voxel_size").empty())
+  {
+    in.voxelSize = ParsePoint(f.Text("inputs.voxel_size"), f.Where("inputs.voxel_size"));
+    if (!(in.voxelSize->minCoeff() > 0.0))
+      f.Fail("inputs.voxel_size", "must be three sizes above 0 mm");
+  }
   in.geometry = f.Text("inputs.geometry");
   in.xrays = f.Texts("inputs.xrays");
   in.xrayMD5 = f.Texts("inputs.xray_md5");
   in.rois = f.Texts("inputs.rois");
-  in.size = f.Text("inputs.size");
-  in.isocenterInCT = f.Text("inputs.iso_ct");
+  if (!f.Text("inputs.size").empty())
+    in.size = ParseImageSize(f.Text("inputs.size"), f.Where("inputs.size"));
+  if (!f.Text("inputs.iso_ct").empty())
+    in.isocenterInCT = ParsePoint(f.Text("inputs.iso_ct"), f.Where("inputs.iso_ct"));
   in.muWater = f.Number("inputs.mu_water");
   in.entropyMask = f.Bool("inputs.entropy_mask");
   in.removeTable = f.Bool("inputs.remove_table");

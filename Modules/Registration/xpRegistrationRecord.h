@@ -34,12 +34,12 @@ struct RegistrationFiles
 {
   std::string ct;                   ///< DICOM folder, .mha/.mhd, .nii/.nii.gz or a TIFF stack (--ct)
   std::string series;               ///< Series Instance UID when the folder holds several (--series)
-  std::string voxelSize;            ///< "x,y,z" mm, for a TIFF stack (--voxel-size)
+  std::optional<Eigen::Vector3d> voxelSize; ///< a TIFF stack's voxel size, mm (--voxel-size)
   std::string geometry;             ///< the stereo geometry JSON (--geometry)
   std::vector<std::string> xrays;   ///< one per imager, in the geometry's order (--xray)
   std::vector<std::string> rois;    ///< optional, one per X-ray (--roi)
-  std::string size;                 ///< registration resolution COLSxROWS, dividing the panel (--size)
-  std::string isocenterInCT;        ///< "x,y,z" LPS mm; empty: the CT's centre (--iso-ct)
+  std::optional<Eigen::Vector2i> size; ///< registration resolution per view, dividing the panel; none: the X-rays' own (--size)
+  std::optional<Eigen::Vector3d> isocenterInCT; ///< the CT point (LPS mm) at the isocentre; none: the CT's centre (--iso-ct)
   double muWater = WaterAttenuationPerMM; ///< water's attenuation per mm (--mu-water)
   bool removeTable = false;         ///< render DRRs from the segmented body, without the CT's table
 };

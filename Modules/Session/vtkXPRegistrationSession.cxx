@@ -4,6 +4,7 @@
 #include "xpRegistrationSession.h"
 #include "xpRegistrationWriters.h"
 #include "xpSessionOptions.h"
+#include "xpVolumeIO.h"
 
 #include <vtkObjectFactory.h>
 
@@ -37,17 +38,22 @@ int vtkXPRegistrationSession::Run()
     xp::RegistrationSources sources;
     sources.ct = this->CTPath;
     sources.series = this->Series;
-    sources.voxelSize = this->VoxelSize;
+    // The session's text values, parsed here once (each refusal naming its setter's option).
+    if (!this->VoxelSize.empty())
+    {
+      const std::array<double, 3> voxel = xp::ParseVoxelSize(this->VoxelSize, "--voxel-size");
+      sources.voxelSize = Eigen::Vector3d(voxel[0], voxel[1], voxel[2]);
+    }
     sources.geometry = this->GeometryPath;
     sources.xrays = this->XRayPaths;
     sources.rois = this->ROIPaths;
-    sources.size = this->Size;
-    sources.isocenterInCT = this->IsocenterInCT;
+    sources.size = xp::ParseSizeIfGiven(this->Size, "--size");
+    sources.isocenterInCT = xp::ParsePointIfGiven(this->IsocenterInCT, "--iso-ct");
     sources.muWater = this->MuWater;
     sources.removeTable = this->RemoveTable;
     sources.couch.motions = this->CouchMotions;
     sources.couch.rotationLimit = this->CouchRotationLimit;
-    sources.couch.target = this->Target;
+    sources.couch.target = xp::ParsePointIfGiven(this->Target, "--target");
     sources.couch.levels.actionMM = this->ActionLevel[0];
     sources.couch.levels.actionDegrees = this->ActionLevel[1];
     sources.couch.levels.maxUncorrectedMM = this->MaxUncorrected[0];

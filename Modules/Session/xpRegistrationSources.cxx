@@ -18,9 +18,9 @@
 namespace xp
 {
 
-DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::string& voxelSize,
-  const std::string& geometryPath,
-  const std::string& isocenterInCT, double muWater, const std::string& method, double stepSize)
+DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, const std::optional<Eigen::Vector3d>& voxelSize,
+  const std::string& geometryPath, const std::optional<Eigen::Vector3d>& isocenterInCT, double muWater, const std::string& method,
+  double stepSize)
 {
   if (method != "trilinear" && method != "siddon")
   {
@@ -36,7 +36,8 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
   }
   DRRSetup setup;
   setup.geometry = ReadStereoGeometry(geometryPath); // geometry first: cheap to check
-  setup.ct = ReadCTVolume(ctPath, series, ParseVoxelSize(voxelSize, "--voxel-size"));
+  setup.ct = ReadCTVolume(ctPath, series,
+    voxelSize ? std::array<double, 3>{ (*voxelSize)[0], (*voxelSize)[1], (*voxelSize)[2] } : std::array<double, 3>{});
   // Steps far below a voxel add nothing but time (1e-9 mm ran without end): bound the work.
   double spacing[3];
   setup.ct.image->GetSpacing(spacing);
@@ -50,8 +51,7 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
   setup.filter->SetInputData(setup.ct.image);
   setup.patient.position = ParsePatientPosition(setup.ct.patientPosition, ctPath);
   setup.patient.roomIsocenter = setup.geometry.isocenter;
-  if (!isocenterInCT.empty())
-    setup.patient.isocenterInCT = ParsePoint(isocenterInCT, "--iso-ct");
+  setup.patient.isocenterInCT = isocenterInCT;
   setup.filter->SetPatientSetup(setup.patient);
   setup.filter->SetMuWater(muWater);
   setup.filter->SetMethod(method == "siddon" ? 1 : 0);
@@ -59,17 +59,17 @@ DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series, cons
   return setup;
 }
 
-int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::string& size)
+int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::optional<Eigen::Vector2i>& size)
 {
-  if (size.empty())
+  if (!size)
     return 1;
-  const auto [columns, rows] = ParseSize(size, "--size");
+  const int columns = (*size)[0], rows = (*size)[1];
   const int factor = panels[0].Columns() / columns;
   for (const XRayView& panel : panels)
   {
     if (factor < 1 || panel.Columns() != columns * factor || panel.Rows() != rows * factor)
     {
-      throw InputError("--size", size + " must divide imager " + panel.name + "'s " + std::to_string(panel.Columns()) + "x" +
+      throw InputError("--size", SizeText(*size) + " must divide imager " + panel.name + "'s " + std::to_string(panel.Columns()) + "x" +
           std::to_string(panel.Rows()) + " pixels by a whole number");
     }
   }
@@ -204,11 +204,11 @@ CouchDescription ResolveCouch(const StereoGeometry& geometry, const CouchOptions
   return couch;
 }
 
-Eigen::Vector3d ResolveTarget(const std::string& text, vtkImageData* ct, const Eigen::Vector3d& isoInCT)
+Eigen::Vector3d ResolveTarget(const std::optional<Eigen::Vector3d>& given, vtkImageData* ct, const Eigen::Vector3d& isoInCT)
 {
-  if (text.empty())
+  if (!given)
     return isoInCT;
-  const Eigen::Vector3d target = ParsePoint(text, "--target");
+  const Eigen::Vector3d& target = *given;
   // Inside the CT's grid: the voxels' centres span it, half a voxel more each way.
   const Eigen::Vector3d index = IndexToPhysical(ct).inverse() * target;
   int dimensions[3];

@@ -37,7 +37,7 @@ struct CouchOptions
 {
   std::string motions;       ///< --couch 6dof|4dof; empty: the geometry file's (6dof, unlimited, without one)
   std::string rotationLimit; ///< --couch-rotation-limit DEG (pitch and roll, each way); empty: the geometry's
-  std::string target;        ///< --target x,y,z in the CT's LPS mm; empty: the planned isocentre
+  std::optional<Eigen::Vector3d> target; ///< --target, the CT's LPS mm; none: the planned isocentre
   ActionLevels levels;       ///< --action-level-mm/-deg, --max-uncorrected-mm/-deg
 };
 
@@ -59,12 +59,12 @@ struct DRRSetup
 
 /**
  * Reads the geometry and the CT and configures one DRR filter (view set later per imager).
- * `isocenterInCT` is "x,y,z" in LPS mm or empty for the CT centre; `method` trilinear|siddon;
- * `voxelSize` "x,y,z" mm for a TIFF volume (--voxel-size), else empty.
+ * `isocenterInCT`: the CT point (LPS mm) at the isocentre, none for the CT centre; `method`
+ * trilinear|siddon; `voxelSize` (mm) for a TIFF volume (--voxel-size), else none.
  */
 VTKXPSESSION_EXPORT DRRSetup MakeDRRSetup(const std::string& ctPath, const std::string& series,
-  const std::string& voxelSize, const std::string& geometryPath, const std::string& isocenterInCT, double muWater,
-  const std::string& method, double stepSize);
+  const std::optional<Eigen::Vector3d>& voxelSize, const std::string& geometryPath,
+  const std::optional<Eigen::Vector3d>& isocenterInCT, double muWater, const std::string& method, double stepSize);
 
 /** What a registration needs, read from its sources and checked. */
 struct RegistrationInputs
@@ -102,15 +102,16 @@ VTKXPSESSION_EXPORT XRayView PanelOfXRay(const XRayView& panel, vtkImageData* xr
  *  options' overrides; throws xp::InputError naming --couch or --couch-rotation-limit. */
 VTKXPSESSION_EXPORT CouchDescription ResolveCouch(const StereoGeometry& geometry, const CouchOptions& options);
 
-/** The treatment target in the CT's LPS mm: `text` ("x,y,z") or, when empty, `isoInCT`; throws
+/** The treatment target in the CT's LPS mm: `target` or, when none, `isoInCT`; throws
  *  xp::InputError naming --target for a point outside the CT's grid. */
-VTKXPSESSION_EXPORT Eigen::Vector3d ResolveTarget(const std::string& text, vtkImageData* ct, const Eigen::Vector3d& isoInCT);
+VTKXPSESSION_EXPORT Eigen::Vector3d ResolveTarget(
+  const std::optional<Eigen::Vector3d>& target, vtkImageData* ct, const Eigen::Vector3d& isoInCT);
 
 /**
- * The whole factor by which `size` ("COLSxROWS", empty = 1) divides every panel; throws
+ * The whole factor by which `size` (columns, rows; none = 1) divides every panel; throws
  * xp::InputError naming --size when it does not.
  */
-VTKXPSESSION_EXPORT int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::string& size);
+VTKXPSESSION_EXPORT int RegistrationShrinkFactor(const std::vector<XRayView>& panels, const std::optional<Eigen::Vector2i>& size);
 
 /** Reads and checks the CT, geometry, X-rays and ROIs of `sources`; throws xp::InputError naming
  *  the file or option. */

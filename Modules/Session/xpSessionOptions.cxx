@@ -8,30 +8,6 @@
 namespace xp
 {
 
-std::pair<int, int> ParseSize(const std::string& text, const std::string& field)
-{
-  int columns = 0, rows = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &columns, &x, &rows, &extra) != 3 || (x != 'x' && x != 'X') ||
-    columns < 1 || rows < 1 || columns > 16384 || rows > 16384)
-  {
-    throw InputError(field, "expected COLSxROWS such as 512x384, got '" + text + "'");
-  }
-  return { columns, rows };
-}
-
-Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field)
-{
-  Eigen::Vector3d p;
-  char c1 = 0, c2 = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf%c", &p[0], &c1, &p[1], &c2, &p[2], &extra) != 5 || c1 != ',' ||
-    c2 != ',' || !p.allFinite())
-  {
-    throw InputError(field, "expected x,y,z in mm, got '" + text + "'");
-  }
-  return p;
-}
-
 void CheckLimit(double value, double low, double high, const std::string& option)
 {
   if (!(value >= low && value <= high))

@@ -1,12 +1,13 @@
 /**
  * @file xpSessionOptions.h
- * @brief The checks of a registration's options, shared by every command and the session:
- *        text to values, each refusal naming the option.
+ * @brief The checks of a registration's options, shared by every command and the session, each
+ *        refusal naming the option (sizes and points as text: xpValueText.h).
  */
 #ifndef xpSessionOptions_h
 #define xpSessionOptions_h
 
 #include "vtkXPSessionModule.h"
+#include "xpValueText.h" // ParseSize, ParsePoint
 
 #include <Eigen/Core>
 
@@ -17,12 +18,6 @@ namespace xp
 {
 
 struct StereoRegistrationSettings;
-
-/** "1024x768" -> {1024, 768}; throws xp::InputError naming `field`. */
-VTKXPSESSION_EXPORT std::pair<int, int> ParseSize(const std::string& text, const std::string& field);
-
-/** "x,y,z" -> a point in mm; throws xp::InputError naming `field`. */
-VTKXPSESSION_EXPORT Eigen::Vector3d ParsePoint(const std::string& text, const std::string& field);
 
 /** Throws xp::InputError naming `option` unless low <= value <= high (NaN fails). */
 VTKXPSESSION_EXPORT void CheckLimit(double value, double low, double high, const std::string& option);

@@ -230,7 +230,7 @@ protected:
     direct.ct = phantom.outputDirectory;
     direct.xrays = { drr.dicomOutputDirectory + "/drr_A.dcm", drr.dicomOutputDirectory + "/drr_B.dcm" };
     direct.geometry = Geometry;
-    direct.size = "256x192";
+    direct.size = Eigen::Vector2i(256, 192);
     direct.outputDirectory = this->Folder + "/direct";
     EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(direct); }), xp::ExitOk);
     study.direct = ReadJSON(direct.outputDirectory + "/result.json");
@@ -310,7 +310,7 @@ TEST_F(ArchiveTest, RegistersThroughDIMSE)
   options.study = study.studyUID;
   options.xrayInstances = study.xrays;
   options.geometry = Geometry;
-  options.size = "256x192";
+  options.size = Eigen::Vector2i(256, 192);
   options.outputDirectory = this->Folder + "/dimse";
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   this->ExpectResultsStored(study, options.outputDirectory, false);

@@ -358,7 +358,7 @@ xp::RegisterOptions RegisterSimulated(const std::string& simulated, const std::s
   options.ct = PhantomCT();
   options.geometry = Geometry;
   options.xrays = { simulated + "/xray_A.png", simulated + "/xray_B.png" };
-  options.size = "256x192";
+  options.size = Eigen::Vector2i(256, 192);
   options.outputDirectory = out;
   return options;
 }
@@ -396,7 +396,7 @@ TEST(Commands, RegisterRecoversASimulatedMisalignment)
   const Eigen::Vector3d centre = xp::ImageCenter(volume.image);
   const Eigen::Vector3d targetInCT = centre + Eigen::Vector3d(30, -20, 25);
   options.couch.motions = "4dof";
-  options.couch.target = std::to_string(targetInCT[0]) + "," + std::to_string(targetInCT[1]) + "," + std::to_string(targetInCT[2]);
+  options.couch.target = targetInCT;
   ASSERT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitOk);
   const xp::RegistrationRecord result = xp::ReadRegistrationRecord("cmd-reg/result.json");
   EXPECT_TRUE(result.ok) << FailureCodes(result);
@@ -623,7 +623,7 @@ TEST(Commands, RegisterBadInputExitsWithTwo)
   options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "missing files";
   options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
-  options.size = "300x200";
+  options.size = Eigen::Vector2i(300, 200);
   EXPECT_EQ(xp::GuardedRun("register", [&] { return xp::RunRegister(options); }), xp::ExitBadInput) << "size";
   options = RegisterSimulated("cmd-no-such", "cmd-reg-bad");
   options.optimizer = "nelder-mead/simplex";
@@ -740,7 +740,7 @@ TEST(Commands, RealPelvisRegistrationAndADifferentPatient)
   options.ct = SharedPelvis;
   // The pelvis resolution: at 256x192 (1.6 mm pixels at the panel) this case ends 0.53 mm
   // along the roll/lateral valley, at 512x384 0.27 mm.
-  options.size = "512x384";
+  options.size = Eigen::Vector2i(512, 384);
   // A 6-DOF top that pitches and rolls at most 1 degree, about its own point below the patient.
   options.couch.rotationLimit = "1";
   options.geometry = "cmd-pel-room.json";

@@ -60,11 +60,8 @@ TEST(RegistrationSession, RefusesEachSourceByItsFileOrOption)
   rois.rois = { "roi_A.png" };
   EXPECT_NE(Refusal(rois).find("--roi"), std::string::npos) << Refusal(rois);
   xp::RegistrationSources size = sources;
-  size.size = "300x200"; // the reference panels are 1024x768
+  size.size = Eigen::Vector2i(300, 200); // the reference panels are 1024x768
   EXPECT_NE(Refusal(size).find("--size"), std::string::npos) << Refusal(size);
-  xp::RegistrationSources iso = sources;
-  iso.isocenterInCT = "1,2";
-  EXPECT_NE(Refusal(iso).find("--iso-ct"), std::string::npos) << Refusal(iso);
   // All of the above were refused before the X-rays, which do not exist, were opened.
   EXPECT_NE(Refusal(sources).find("xray_A.png"), std::string::npos) << Refusal(sources);
 }
@@ -78,7 +75,7 @@ TEST(RegistrationSession, RecordsItsSourcesAsAbsolutePathsWithTheXRaysDigests)
   sources.ct = dir + "/ct";
   sources.geometry = dir + "/../" + dir + "/geometry.json";
   sources.xrays = { dir + "/a.png", dir + "/b.png" };
-  sources.size = "256x192";
+  sources.size = Eigen::Vector2i(256, 192);
   sources.removeTable = true;
   const xp::RegistrationRecordInputs recorded = xp::RecordedInputs(sources, false);
   const std::string here = std::filesystem::current_path().string();
@@ -86,7 +83,7 @@ TEST(RegistrationSession, RecordsItsSourcesAsAbsolutePathsWithTheXRaysDigests)
   EXPECT_EQ(recorded.geometry, here + "/" + dir + "/geometry.json") << "not normalised";
   ASSERT_EQ(recorded.xrayMD5.size(), 2u);
   EXPECT_NE(recorded.xrayMD5[0], recorded.xrayMD5[1]) << "each X-ray's own digest";
-  EXPECT_EQ(recorded.size, "256x192");
+  EXPECT_EQ(recorded.size, Eigen::Vector2i(256, 192));
   EXPECT_TRUE(recorded.removeTable);
   EXPECT_FALSE(recorded.entropyMask);
 }
@@ -140,14 +137,15 @@ TEST(RegistrationSession, TheTargetMustLieInTheCT)
   ct->SetOrigin(-5.0, 100.0, 0.0);
   ct->AllocateScalars(VTK_SHORT, 1);
   const Eigen::Vector3d iso(0.0, 120.0, 6.0);
-  EXPECT_EQ(xp::ResolveTarget("", ct, iso), iso);
-  EXPECT_EQ(xp::ResolveTarget("4.4,138,13", ct, iso), Eigen::Vector3d(4.4, 138, 13));
-  for (const char* outside : { "5.6,120,6", "0,98.9,6", "0,120,13.6", "0,120,-1.6" })
+  EXPECT_EQ(xp::ResolveTarget(std::nullopt, ct, iso), iso);
+  EXPECT_EQ(xp::ResolveTarget(Eigen::Vector3d(4.4, 138, 13), ct, iso), Eigen::Vector3d(4.4, 138, 13));
+  for (const Eigen::Vector3d outside : { Eigen::Vector3d(5.6, 120, 6), Eigen::Vector3d(0, 98.9, 6), Eigen::Vector3d(0, 120, 13.6),
+         Eigen::Vector3d(0, 120, -1.6) })
   {
     try
     {
       xp::ResolveTarget(outside, ct, iso);
-      ADD_FAILURE() << outside << " passed";
+      ADD_FAILURE() << outside.transpose() << " passed";
     }
     catch (const xp::InputError& e)
     {
@@ -155,7 +153,6 @@ TEST(RegistrationSession, TheTargetMustLieInTheCT)
       EXPECT_NE(std::string(e.what()).find("outside the CT"), std::string::npos) << e.what();
     }
   }
-  EXPECT_THROW(xp::ResolveTarget("1,2", ct, iso), xp::InputError);
 }
 
 // A geometry file's couch, and the options that override it.
