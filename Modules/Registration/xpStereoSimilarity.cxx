@@ -80,22 +80,16 @@ StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen:
       throw InputError("view " + item.view.name, "X-ray or mask size does not match the panel");
     }
     this->DRRs.emplace_back(pixels);
-    this->DRRRanks.emplace_back(pixels);
     PreparedXRay prepared = PrepareXRay(item, levels);
-    this->XRayRanks.push_back(std::move(prepared.levels));
-    this->XRayStructure.push_back(std::move(prepared.structure)); // empty without a correlation objective
-  }
-  for (const RegistrationView& item : this->Items)
-  {
     const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
     const int columns = item.view.Columns(), rows = item.view.Rows();
-    this->DRRHighPass.emplace_back(mask, columns, rows, this->HighPassMM > 0.0 ? HighPassPixels(this->HighPassMM, item.view) : 0.0);
-    this->DRRCorrelationLowPass.emplace_back(mask, columns, rows, this->CorrelationMM / item.view.pixelSpacing[0]);
+    this->MI.push_back(std::make_unique<MutualInformationMetric>(mask, columns, rows,
+      this->Equalize ? std::move(prepared.levels) : item.xray, bins, this->Equalize,
+      this->HighPassMM > 0.0 ? HighPassPixels(this->HighPassMM, item.view) : 0.0));
+    if (this->CorrelationMM > 0.0)
+      this->Correlation.push_back(std::make_unique<CorrelationMetric>(
+        mask, columns, rows, std::move(prepared.structure), this->CorrelationMM / item.view.pixelSpacing[0]));
   }
-  this->Histograms.assign(this->Items.size(), JointHistogram(bins));
-  this->IntegralLevels.resize(this->Items.size());
-  this->StructureLevels.resize(this->Items.size());
-  this->Structure.resize(this->Items.size());
   this->LastMI.assign(this->Items.size(), 0.0);
   this->LastNCC.assign(this->Items.size(), 0.0);
   this->DRRCurrent.assign(this->Items.size(), false);
@@ -119,7 +113,7 @@ const std::vector<uint16_t>& StereoSimilarity::LastDRRLevels(size_t v) const
   if (!this->Equalize)
     return this->LastDRR(v);
   this->FetchLastDRRs();
-  return this->DRRRanks[v];
+  return this->MI[v]->DRRLevels();
 }
 
 void StereoSimilarity::SetDevice(ComputeDevice device)
@@ -132,7 +126,7 @@ void StereoSimilarity::SetDevice(ComputeDevice device)
 bool StereoSimilarity::MeasuresOnGPU() const
 {
   return this->Projector.Device() == ComputeDevice::CUDA && this->Equalize && this->HighPassMM <= 0.0 && this->CorrelationMM <= 0.0 &&
-    this->Projector.Stride() == RenderStride{} && this->Histograms.front().Bins() <= 64;
+    this->Projector.Stride() == RenderStride{} && this->MI.front()->Bins() <= 64;
 }
 
 void StereoSimilarity::SetUpGPUMetric()
@@ -141,22 +135,23 @@ void StereoSimilarity::SetUpGPUMetric()
   for (size_t v = 0; v < this->Items.size(); ++v)
   {
     // The histogram's bins of a level (JointHistogram: level * bins / 4096), for both images.
-    const int bins = this->Histograms[v].Bins();
+    const MutualInformationMetric& metric = *this->MI[v];
+    const int bins = metric.Bins();
     const auto binOf = [bins](uint16_t level) { return static_cast<uint8_t>(static_cast<long long>(level) * bins / RankLevels); };
     GPUMutualInformation::View view;
     view.source = this->Items[v].view.source;
     view.grid = this->Projector.Grid(v);
     view.pixels = &this->Projector.Traced(v);
     for (int pixel : this->Projector.Traced(v).Order())
-      view.xrayBins.push_back(binOf(this->XRayRanks[v][static_cast<size_t>(pixel)]));
-    const LevelTable& levels = this->IntegralLevels[v];
+      view.xrayBins.push_back(binOf(metric.XRayLevels()[static_cast<size_t>(pixel)]));
+    const LevelTable& levels = metric.IntegralLevels();
     view.low = levels.Low();
     view.toCell = levels.ToCell();
     for (uint16_t level : levels.Levels())
       view.cellBins.push_back(binOf(level));
     views.push_back(std::move(view));
   }
-  this->GPUMetric = std::make_unique<GPUMutualInformation>(this->Volume, views, this->Histograms.front().Bins());
+  this->GPUMetric = std::make_unique<GPUMutualInformation>(this->Volume, views, this->MI.front()->Bins());
 }
 
 void StereoSimilarity::FetchLastDRRs() const
@@ -167,11 +162,7 @@ void StereoSimilarity::FetchLastDRRs() const
   this->Projector.Render(this->LastPose);
   for (size_t v = 0; v < this->Items.size(); ++v)
   {
-    const uint8_t* mask = this->Items[v].mask.empty() ? nullptr : this->Items[v].mask.data();
-    const std::vector<float>& integral = this->Projector.Integrals(v);
-    std::vector<uint16_t>& ranks = this->DRRRanks[v];
-    for (size_t i = 0; i < integral.size(); ++i)
-      ranks[i] = (mask && !mask[i]) ? 0 : this->IntegralLevels[v](integral[i]);
+    this->MI[v]->SetDRRLevels(this->Projector.Integrals(v));
     this->DRRCurrent[v] = false;
   }
   this->HostCurrent = true;
@@ -233,15 +224,10 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
 
 void StereoSimilarity::Measure(size_t v)
 {
-  const RegistrationView& item = this->Items[v];
-  const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
-  if (this->Equalize)
-    this->RankDRR(v);
-  JointHistogram& histogram = this->Histograms[v];
-  histogram.Compute(this->XRayLevels(v).data(), this->LastDRRLevels(v).data(), static_cast<long long>(item.xray.size()), mask, mask);
-  this->LastMI[v] = histogram.MutualInformation();
-  if (this->CorrelationMM > 0.0)
-    this->LastNCC[v] = this->CorrelateDRR(v);
+  const std::vector<float>& integrals = this->Projector.Integrals(v);
+  this->LastMI[v] = this->MI[v]->Measure(integrals);
+  if (!this->Correlation.empty())
+    this->LastNCC[v] = this->Correlation[v]->Measure(integrals);
 }
 
 void StereoSimilarity::SetRenderStride(const RenderStride& stride)
@@ -249,49 +235,6 @@ void StereoSimilarity::SetRenderStride(const RenderStride& stride)
   this->GPUMetric.reset(); // its pixel lists are the old stride's
   this->FetchLastDRRs();
   this->Projector.SetStride(stride);
-}
-
-double StereoSimilarity::CorrelateDRR(size_t v)
-{
-  const RegistrationView& item = this->Items[v];
-  const std::vector<float>& integral = this->Projector.Integrals(v);
-  const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
-  std::vector<float>& structure = this->Structure[v];
-  // Negated: more matter, less transmission, a lower rank in the X-ray.
-  structure.resize(integral.size());
-  for (size_t i = 0; i < integral.size(); ++i)
-    structure[i] = -integral[i];
-  this->DRRCorrelationLowPass[v].Subtract(structure.data());
-  return PearsonCorrelation(this->XRayStructure[v].data(), structure.data(), structure.size(), mask);
-}
-
-void StereoSimilarity::RankDRR(size_t v)
-{
-  const RegistrationView& item = this->Items[v];
-  const std::vector<float>& integral = this->Projector.Integrals(v);
-  const long long count = static_cast<long long>(integral.size());
-  const uint8_t* mask = item.mask.empty() ? nullptr : item.mask.data();
-  // The distributions at the first pose evaluated fix the levels for every later pose.
-  LevelTable& levels = this->IntegralLevels[v];
-  if (levels.Empty())
-    levels.Build(integral.data(), mask, count);
-  uint16_t* out = this->DRRRanks[v].data();
-  if (this->HighPassMM <= 0.0)
-  {
-    for (long long i = 0; i < count; ++i)
-      out[i] = (mask && !mask[i]) ? 0 : levels(integral[i]);
-    return;
-  }
-  std::vector<float>& structure = this->Structure[v];
-  structure.resize(integral.size());
-  for (long long i = 0; i < count; ++i)
-    structure[i] = (mask && !mask[i]) ? 0.0f : levels(integral[i]);
-  this->DRRHighPass[v].Subtract(structure.data());
-  LevelTable& structureLevels = this->StructureLevels[v];
-  if (structureLevels.Empty())
-    structureLevels.Build(structure.data(), mask, count);
-  for (long long i = 0; i < count; ++i)
-    out[i] = (mask && !mask[i]) ? 0 : structureLevels(structure[i]);
 }
 
 } // namespace xp

@@ -19,6 +19,7 @@
 #include "xpDRRProjector.h"
 #include "xpImageLevels.h"
 #include "xpMutualInformation.h"
+#include "xpViewMetrics.h"
 #include "xpPose.h"
 #include "xpRayCaster.h"
 #include "xpXRayView.h"
@@ -96,7 +97,7 @@ public:
   /** The 12-bit DRR (transmission) of view v from the last evaluation (0 where masked). */
   const std::vector<uint16_t>& LastDRR(size_t v) const;
   /** The images as MI sees them: equalised levels, or the X-ray and the DRR as they are. */
-  const std::vector<uint16_t>& XRayLevels(size_t v) const { return this->Equalize ? this->XRayRanks[v] : this->Items[v].xray; }
+  const std::vector<uint16_t>& XRayLevels(size_t v) const { return this->MI[v]->XRayLevels(); }
   const std::vector<uint16_t>& LastDRRLevels(size_t v) const;
   long long RenderedDRRs() const { return this->DRRCount; }
   /**
@@ -129,18 +130,17 @@ private:
   /** After a GPU evaluation: the last pose's DRRs and levels on the host, for those who ask
    *  (once, whichever view's thread asks first). */
   void FetchLastDRRs() const;
-  /** Levels, histogram, MI (and correlation) of view v's last DRR against its X-ray. */
+  /** View v's metrics of its last DRR: MI, and the correlation with a correlation objective. */
   void Measure(size_t v);
-  /** The last DRR's line integrals of view v as levels. */
-  void RankDRR(size_t v);
-  /** Correlation of view v's X-ray structure with the last DRR's (bone dark, as the ranks). */
-  double CorrelateDRR(size_t v);
 
   const AttenuationVolume& Volume;
   Eigen::Isometry3d Planned;
   Eigen::Vector3d Isocenter;
   std::vector<RegistrationView> Items;
-  std::vector<JointHistogram> Histograms; ///< per view: the views' metrics run side by side
+  /** Per view: its metrics (xpViewMetrics.h), run side by side; correlations only with a
+   *  correlation objective. */
+  std::vector<std::unique_ptr<MutualInformationMetric>> MI;
+  std::vector<std::unique_ptr<CorrelationMetric>> Correlation;
   /** The DRRs' line integrals at the last pose: the views' panels and masks are Items'. */
   DRRProjector Projector;
   /** With equalised levels MI never reads the 12-bit DRRs: they are converted when asked for, not
@@ -149,21 +149,12 @@ private:
   mutable std::vector<uint8_t> DRRCurrent; ///< bytes, not bits: the views' metrics set theirs side by side
   bool Equalize = true;
   double HighPassMM = 0.0;
-  std::vector<std::vector<uint16_t>> XRayRanks;
-  mutable std::vector<std::vector<uint16_t>> DRRRanks;
   /** The GPU's objective (SetDevice), and whether the host's DRRs are those of LastPose. */
   std::unique_ptr<GPUMutualInformation> GPUMetric;
   Eigen::Isometry3d LastPose = Eigen::Isometry3d::Identity();
   mutable bool HostCurrent = true;
   mutable std::mutex FetchMutex; ///< the views' checks ask for their DRRs from threads of their own
-  /** Per view, set at the first pose: line integral -> level, and (high-pass) structure -> level. */
-  std::vector<LevelTable> IntegralLevels;
-  std::vector<LevelTable> StructureLevels;
-  std::vector<std::vector<float>> Structure; ///< scratch of the high-pass
-  /** Per view, the DRR's high-pass and correlation low-pass over its fixed mask. */
-  std::vector<MaskedLowPass> DRRHighPass, DRRCorrelationLowPass;
   double CorrelationMM = 0.0;
-  std::vector<std::vector<float>> XRayStructure; ///< with a correlation objective: ranks less their low-pass
   std::vector<double> LastNCC;
 
   std::vector<double> LastMI;
