@@ -56,8 +56,9 @@ void RegistrationSession::SetUpFilter()
   registration->SetPatientSetup(this->Read.setup.patient);
   registration->SetMuWater(this->Given.muWater);
   registration->SetShrinkFactor(this->Read.shrinkFactor);
-  if (!this->Read.xrays.empty()) // a session on images in memory gets them with SetXRays
-    this->SetXRays(this->Read.xrays, this->Read.rois);
+  // Read from files, the views were prepared and checked with the rest (ReadRegistrationInputs);
+  // a session on images in memory gets them with SetXRays.
+  this->GiveXRaysToFilter();
 }
 
 void RegistrationSession::SetXRays(
@@ -69,10 +70,15 @@ void RegistrationSession::SetXRays(
     this->Read.setup.geometry, images, masks, this->Read.shrinkFactor, this->Given.xrays);
   this->Read.xrays = xrays;
   this->Read.rois = rois;
+  this->GiveXRaysToFilter();
+}
+
+void RegistrationSession::GiveXRaysToFilter()
+{
   this->Registration->RemoveAllXRaysAndROIs();
-  for (vtkImageData* xray : xrays)
+  for (vtkImageData* xray : this->Read.xrays)
     this->Registration->AddXRayData(xray);
-  for (vtkImageData* roi : rois)
+  for (vtkImageData* roi : this->Read.rois)
     this->Registration->AddROIData(roi);
 }
 

@@ -89,6 +89,8 @@ public:
 
 private:
   void SetUpFilter();
+  /** The filter's X-rays and ROIs: Read's. */
+  void GiveXRaysToFilter();
 
   RegistrationSources Given;
   RegistrationInputs Read;
