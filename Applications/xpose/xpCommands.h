@@ -17,11 +17,14 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace xp
 {
+
+class RegistrationSession;
 
 struct RegistrationRecord;
 struct Pose;
@@ -270,6 +273,10 @@ int RunRegister(const RegisterOptions& options);
 /** RunRegister on local files (options.ct and options.xrays): reads, registers, writes every
  *  output asked for and prints the result; returns the record written as result.json. */
 RegistrationRecord RegisterFiles(const RegisterOptions& options);
+/** The same with a session kept between calls (track's frames): when `session` holds one, its CT
+ *  (options.ct, as read for an earlier call) is kept and only options.xrays are read; else a new
+ *  one is read and left there. */
+RegistrationRecord RegisterFiles(const RegisterOptions& options, std::unique_ptr<RegistrationSession>& session);
 int RunEvaluate(const EvaluateOptions& options);
 int RunReport(const ReportOptions& options);
 /** The visual report of a registration whose result.json and masks are in `resultFolder`, from

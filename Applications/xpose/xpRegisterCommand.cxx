@@ -201,6 +201,12 @@ int RunRegister(const RegisterOptions& options)
 
 RegistrationRecord RegisterFiles(const RegisterOptions& options)
 {
+  std::unique_ptr<RegistrationSession> session;
+  return RegisterFiles(options, session);
+}
+
+RegistrationRecord RegisterFiles(const RegisterOptions& options, std::unique_ptr<RegistrationSession>& kept)
+{
   const Clock::time_point start = Clock::now();
   UseThreads(options.threads);
   const ComputeDevice device = UseDevice(options.device);
@@ -218,14 +224,19 @@ RegistrationRecord RegisterFiles(const RegisterOptions& options)
     StagedOutputDirectory::CheckWritable(options.reportDirectory);
   // Every input is read and checked before any work.
   const std::optional<CTSeriesInfo> dicomCT = DICOMOutputCT(options);
-  RegistrationSession session(options);
+  const bool ctRead = kept != nullptr;
+  if (ctRead)
+    kept->ReadXRays(options.xrays);
+  else
+    kept = std::make_unique<RegistrationSession>(options);
+  RegistrationSession& session = *kept;
   const RegistrationInputs& inputs = session.Inputs();
   if (dicomCT)
     CheckRTImageViews(inputs.setup.geometry, "--dicom-out");
   WarnOfGeometryTags(options, inputs.setup);
   const double readSeconds = Since(start);
-  std::printf("read: CT %s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(), inputs.views.size(),
-    inputs.views[0].view.Columns(), inputs.views[0].view.Rows(), readSeconds);
+  std::printf("read: CT %s%s, %zu X-rays, registering at %dx%d per view (%.2f s)\n", options.ct.c_str(),
+    ctRead ? " (kept as first read)" : "", inputs.views.size(), inputs.views[0].view.Columns(), inputs.views[0].view.Rows(), readSeconds);
   if (options.removeTable)
     std::printf("table: %lld voxels outside the body set to air (--remove-table)\n", inputs.tableVoxelsRemoved);
   else if (!options.settings.chooseTable)

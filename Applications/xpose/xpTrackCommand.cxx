@@ -3,6 +3,7 @@
 #include "xpError.h"
 #include "xpImageIO.h"
 #include "xpRegistrationRecord.h"
+#include "xpRegistrationSession.h"
 #include "xpVolumeIO.h"
 
 #include <json/json.h>
@@ -166,6 +167,7 @@ int RunTrack(const TrackOptions& options)
   Json::Value poses(Json::arrayValue);
   std::string start = options.registration.initialPose;
   bool allOk = true, previousOk = true;
+  std::unique_ptr<RegistrationSession> session;
   // A volume the global search can search (a bone in TIFF, or --global-search): a frame after a
   // failed one is searched from nothing. Between the wrist set's frames 2 and 158 the hand turns
   // by tens of degrees; a failed frame's end is no start for the next.
@@ -187,7 +189,8 @@ int RunTrack(const TrackOptions& options)
     frame.outputDirectory = output.Path(FrameName(f));
     if (!options.reportDirectory.empty())
       frame.reportDirectory = options.reportDirectory + "/" + FrameName(f);
-    const RegistrationRecord record = RegisterFiles(frame); // the frame's folder written, its record returned
+    // The frame's folder written, its record returned; the CT read once, for the first frame.
+    const RegistrationRecord record = RegisterFiles(frame, session);
     allOk = allOk && record.ok;
     previousOk = record.ok;
     // The next frame starts where this one ended: a motion between frames is small, and a failed

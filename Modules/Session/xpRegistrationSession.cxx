@@ -61,6 +61,19 @@ void RegistrationSession::SetUpFilter()
   this->GiveXRaysToFilter();
 }
 
+void RegistrationSession::ReadXRays(const std::vector<std::string>& xrays)
+{
+  if (!this->FromFiles())
+    throw InputError("--xray", "a session on images in memory takes its X-rays with SetXRays");
+  const Clock::time_point start = Clock::now();
+  RegistrationSources sources = this->Given;
+  sources.xrays = xrays;
+  ReadXRayInputs(sources, this->Read);
+  this->Given = sources;
+  this->SecondsToRead = Since(start);
+  this->SetUpFilter(); // the panels may be binned otherwise than the last X-rays'
+}
+
 void RegistrationSession::SetXRays(
   const std::vector<vtkSmartPointer<vtkImageData>>& xrays, const std::vector<vtkSmartPointer<vtkImageData>>& rois)
 {

@@ -50,6 +50,10 @@ public:
   void SetXRays(const std::vector<vtkSmartPointer<vtkImageData>>& xrays,
     const std::vector<vtkSmartPointer<vtkImageData>>& rois = {});
 
+  /** A session read from files: its X-rays replaced by `xrays` (one per imager, the ROIs as
+   *  before), read and checked like the first; the CT stays as read (a tracked frame). */
+  void ReadXRays(const std::vector<std::string>& xrays);
+
   /** The files it was read from; empty for a session on images in memory. */
   const RegistrationSources& Sources() const { return this->Given; }
   const RegistrationInputs& Inputs() const { return this->Read; }

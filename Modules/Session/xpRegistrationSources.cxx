@@ -91,6 +91,25 @@ RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
     inputs.setup.filter->SetInputData(inputs.setup.ct.image);
   }
   ValidateStereoGeometry(inputs.setup.geometry, sources.geometry);
+  inputs.panels = inputs.setup.geometry.views;
+  ReadXRayInputs(sources, inputs);
+  vtkImageData* ct = inputs.setup.ct.image;
+  inputs.isoInCT = inputs.setup.patient.IsocenterInCT(ImageCenter(ct));
+  inputs.planned = inputs.setup.patient.PlannedCTToRoom(ImageCenter(ct));
+  inputs.couch = ResolveCouch(inputs.setup.geometry, sources.couch);
+  inputs.targetInCT = ResolveTarget(sources.couch.target, ct, inputs.isoInCT);
+  inputs.actionLevels = sources.couch.levels;
+  return inputs;
+}
+
+void ReadXRayInputs(const RegistrationSources& sources, RegistrationInputs& inputs)
+{
+  // Each X-ray's panel is found anew from the imager's own (a later frame may be binned otherwise).
+  inputs.setup.geometry.views = inputs.panels;
+  inputs.xrays.clear();
+  inputs.rois.clear();
+  inputs.binning.clear();
+  inputs.fields.clear();
   if (sources.xrays.size() != inputs.setup.geometry.views.size())
   {
     throw InputError("--xray", "the geometry has " + std::to_string(inputs.setup.geometry.views.size()) +
@@ -150,13 +169,6 @@ RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources)
   }
   // The registration filter's own checks, here before any work and naming the files.
   inputs.views = vtkXPStereoRegistrationFilter::PrepareViews(setup.geometry, xrays, rois, inputs.shrinkFactor, sources.xrays);
-  vtkImageData* ct = setup.ct.image;
-  inputs.isoInCT = setup.patient.IsocenterInCT(ImageCenter(ct));
-  inputs.planned = setup.patient.PlannedCTToRoom(ImageCenter(ct));
-  inputs.couch = ResolveCouch(setup.geometry, sources.couch);
-  inputs.targetInCT = ResolveTarget(sources.couch.target, ct, inputs.isoInCT);
-  inputs.actionLevels = sources.couch.levels;
-  return inputs;
 }
 
 XRayView PanelOfXRay(const XRayView& panel, vtkImageData* xray, const std::string& file, const Eigen::Vector3d& isocenter,

@@ -84,6 +84,7 @@ struct RegistrationInputs
   /** Per X-ray: the binning of its imager's panel it was read out with ({1, 1}: the whole panel);
    *  setup.geometry's views are then the binned panels (PanelOfXRay). */
   std::vector<std::array<int, 2>> binning;
+  std::vector<XRayView> panels;           ///< the geometry's imagers as its file gives them (not binned)
   CouchDescription couch;                 ///< the geometry's couch with the options' overrides
   Eigen::Vector3d targetInCT = Eigen::Vector3d::Zero(); ///< LPS mm: the treatment target (default isoInCT)
   ActionLevels actionLevels;
@@ -116,6 +117,10 @@ VTKXPSESSION_EXPORT int RegistrationShrinkFactor(const std::vector<XRayView>& pa
 /** Reads and checks the CT, geometry, X-rays and ROIs of `sources`; throws xp::InputError naming
  *  the file or option. */
 VTKXPSESSION_EXPORT RegistrationInputs ReadRegistrationInputs(const RegistrationSources& sources);
+
+/** The X-ray half of ReadRegistrationInputs: reads and checks the X-rays and ROIs of `sources`
+ *  into `inputs`, whose CT and geometry are read (a tracked frame's new X-rays, the CT kept). */
+VTKXPSESSION_EXPORT void ReadXRayInputs(const RegistrationSources& sources, RegistrationInputs& inputs);
 
 } // namespace xp
 
