@@ -110,8 +110,8 @@ const std::vector<uint16_t>& StereoSimilarity::LastDRR(size_t v) const
 
 const std::vector<uint16_t>& StereoSimilarity::LastDRRLevels(size_t v) const
 {
-  if (!this->Equalize)
-    return this->LastDRR(v);
+  // Without equalisation they are the 12-bit DRR, which the metric converted when it measured
+  // (the GPU measures equalised levels only).
   this->FetchLastDRRs();
   return this->MI[v]->DRRLevels();
 }

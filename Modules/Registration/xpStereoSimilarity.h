@@ -19,9 +19,9 @@
 #include "xpDRRProjector.h"
 #include "xpImageLevels.h"
 #include "xpMutualInformation.h"
-#include "xpViewMetrics.h"
 #include "xpPose.h"
 #include "xpRayCaster.h"
+#include "xpViewMetrics.h"
 #include "xpXRayView.h"
 
 #include <memory>
