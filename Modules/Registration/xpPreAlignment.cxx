@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <vtkSMPTools.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace xp
@@ -32,15 +33,16 @@ void WarpKept(const std::vector<uint16_t>& moving, int columns, int rows, const 
   const std::vector<KeptPixel>& kept, std::vector<uint16_t>& out, std::vector<uint8_t>& valid)
 {
   const double c = std::cos(-motion.rotation * RadiansPerDegree), s = std::sin(-motion.rotation * RadiansPerDegree);
+  const double toColumn = 1.0 / motion.scale[0], toRow = 1.0 / motion.scale[1];
   vtkSMPTools::For(size_t{ 0 }, kept.size(),
     [&](size_t k0, size_t k1)
     {
       for (size_t k = k0; k < k1; ++k)
       {
         const int row = kept[k].row, column = kept[k].column;
-        // T^-1 p = R^-1 (p - center - shift) + center
+        // T^-1 p = S^-1 R^-1 (p - center - shift) + center
         const double dx = column - motion.center[0] - motion.shift[0], dy = row - motion.center[1] - motion.shift[1];
-        const double x = c * dx - s * dy + motion.center[0], y = s * dx + c * dy + motion.center[1];
+        const double x = (c * dx - s * dy) * toColumn + motion.center[0], y = (s * dx + c * dy) * toRow + motion.center[1];
         // Inside when floor(x) and floor(x) + 1 are columns: 0 <= x < columns - 1 (NaN is not),
         // where truncation is the floor, without a call to floor per pixel.
         if (!(x >= 0.0 && y >= 0.0 && x < columns - 1 && y < rows - 1))
@@ -82,8 +84,12 @@ double ProjectedRotation(const XRayView& view, const Eigen::Vector3d& isocenter,
 
 } // namespace
 
-Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, int columns, int rows,
-  const Eigen::Vector2d& center, const uint8_t* fixedMask, int bins, double initialStepPixels)
+namespace
+{
+
+/** Register2D's search; with `stretch`, a scale per panel axis (percent from 1) as well. */
+Motion2D SearchMotion2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, int columns, int rows,
+  const Eigen::Vector2d& center, const uint8_t* fixedMask, int bins, double initialStepPixels, bool stretch)
 {
   const size_t pixels = static_cast<size_t>(columns) * rows;
   if (fixed.size() != pixels || moving.size() != pixels)
@@ -104,16 +110,22 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
   std::vector<uint8_t> valid(kept.size());
   Motion2D motion;
   motion.center = center;
-  auto mi = [&](const std::vector<double>& x)
+  auto set = [&](const std::vector<double>& x)
   {
     motion.shift = { x[0], x[1] };
     motion.rotation = x[2];
+    if (stretch)
+      motion.scale = { 1.0 + 0.01 * x[3], 1.0 + 0.01 * x[4] };
+  };
+  auto mi = [&](const std::vector<double>& x)
+  {
+    set(x);
     WarpKept(moving, columns, rows, motion, kept, warped, valid);
     histogram.Compute(fixedKept.data(), warped.data(), static_cast<long long>(kept.size()), valid.data());
     return histogram.MutualInformation();
   };
   // Shift along columns and rows (pixels) and in-plane rotation (degrees), by the optimiser
-  // component the 6-DOF stages use (Nelder-Mead).
+  // component the 6-DOF stages use (Nelder-Mead); a stretch in percent, from 2 % steps.
   ParameterSearch search;
   const double reach = 0.25 * std::min(columns, rows);
   search.lower = { -reach, -reach, -20.0 };
@@ -123,10 +135,91 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
   search.tolerance = { 0.05, 0.05, 0.02 };
   search.maxEvaluations = 400;
   std::vector<double> x = { 0.0, 0.0, 0.0 };
+  if (stretch)
+  {
+    for (std::vector<double>* values : { &search.lower, &search.upper, &search.step, &search.tolerance, &x })
+      values->resize(5);
+    search.lower[3] = search.lower[4] = -20.0;
+    search.upper[3] = search.upper[4] = 20.0;
+    search.step[3] = search.step[4] = 2.0;
+    // The halves' distance needs the scale to 0.05 % (0.1 pixel across 200), not more.
+    search.tolerance = { 0.1, 0.1, 0.05, 0.05, 0.05 };
+  }
   MaximizeParameters(mi, x, search);
-  motion.shift = { x[0], x[1] };
-  motion.rotation = x[2];
+  set(x);
   return motion;
+}
+
+} // namespace
+
+Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, int columns, int rows,
+  const Eigen::Vector2d& center, const uint8_t* fixedMask, int bins, double initialStepPixels)
+{
+  return SearchMotion2D(fixed, moving, columns, rows, center, fixedMask, bins, initialStepPixels, false);
+}
+
+double HalvesApart(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, const std::vector<uint8_t>& mask,
+  int columns, int rows, const Eigen::Vector2d& center, int bins, double initialStepPixels)
+{
+  if (mask.size() != static_cast<size_t>(columns) * rows)
+    throw InputError("halves' 2D registration", "the mask's size differs from the images'");
+  std::vector<int> validColumns, validRows;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+      if (mask[static_cast<size_t>(r) * columns + c])
+        validColumns.push_back(c), validRows.push_back(r);
+  if (validColumns.empty())
+    return 0.0;
+  std::nth_element(validColumns.begin(), validColumns.begin() + validColumns.size() / 2, validColumns.end());
+  std::nth_element(validRows.begin(), validRows.begin() + validRows.size() / 2, validRows.end());
+  const int medianColumn = validColumns[validColumns.size() / 2], medianRow = validRows[validRows.size() / 2];
+  double apart = 0.0;
+  for (int split = 0; split < 2; ++split)
+  {
+    Eigen::Vector2d shifts[2];
+    for (int side = 0; side < 2; ++side)
+    {
+      std::vector<uint8_t> half = mask;
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < columns; ++c)
+          if ((split == 0 ? c >= medianColumn : r >= medianRow) != (side == 1))
+            half[static_cast<size_t>(r) * columns + c] = 0;
+      shifts[side] = Register2D(fixed, moving, columns, rows, center, half.data(), bins, initialStepPixels).shift;
+    }
+    apart = std::max(apart, (shifts[0] - shifts[1]).norm());
+  }
+  return apart;
+}
+
+double StretchedHalvesApart(const std::vector<uint16_t>& drr, const std::vector<uint16_t>& xray, const std::vector<uint8_t>& mask,
+  int columns, int rows, int bins, double initialStepPixels, Motion2D* motion)
+{
+  if (mask.size() != static_cast<size_t>(columns) * rows)
+    throw InputError("halves' 2D registration", "the mask's size differs from the images'");
+  std::vector<int> validColumns, validRows;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+      if (mask[static_cast<size_t>(r) * columns + c])
+        validColumns.push_back(c), validRows.push_back(r);
+  if (validColumns.empty())
+    return 0.0;
+  // The halves' centroids along each axis: the mean of the valid pixels below and above the median.
+  Eigen::Vector2d centroid, between;
+  for (int axis = 0; axis < 2; ++axis)
+  {
+    std::vector<int>& values = axis == 0 ? validColumns : validRows;
+    std::sort(values.begin(), values.end());
+    const size_t median = values.size() / 2;
+    double below = 0.0, above = 0.0;
+    for (size_t i = 0; i < values.size(); ++i)
+      (i < median ? below : above) += values[i];
+    centroid[axis] = (below + above) / values.size();
+    between[axis] = median > 0 ? above / (values.size() - median) - below / median : 0.0;
+  }
+  const Motion2D found = SearchMotion2D(drr, xray, columns, rows, centroid, mask.data(), bins, initialStepPixels, true);
+  if (motion)
+    *motion = found;
+  return std::max(std::abs(found.scale[0] - 1.0) * between[0], std::abs(found.scale[1] - 1.0) * between[1]);
 }
 
 Pose InverseProjection(const std::vector<XRayView>& views, const std::vector<Motion2D>& motions, const Eigen::Vector3d& isocenter)

@@ -24,6 +24,9 @@ struct Motion2D
   Eigen::Vector2d shift = Eigen::Vector2d::Zero();
   double rotation = 0.0;
   Eigen::Vector2d center = Eigen::Vector2d::Zero();
+  /** Scale along the panel's columns and rows about `center`, before the rotation (1, 1: rigid):
+   *  T p = R S (p - center) + center + shift. */
+  Eigen::Vector2d scale = Eigen::Vector2d::Ones();
 };
 
 /**
@@ -35,6 +38,31 @@ struct Motion2D
 VTKXPREGISTRATION_EXPORT Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving,
   int columns, int rows, const Eigen::Vector2d& center, const uint8_t* fixedMask = nullptr, int bins = 32,
   double initialStepPixels = 0.0);
+
+/**
+ * How far apart (pixels) the two halves of a view's valid pixels register, each on its own: the
+ * pixels `mask` keeps are split at their median column, and again at their median row, and each
+ * half of `fixed` is registered with `moving` (Register2D, first steps `initialStepPixels`); the
+ * larger of the two splits' distances between their halves' shifts. A rigid fit of the right
+ * anatomy leaves both halves where the whole is; an anatomy no rigid pose fits pulls them apart.
+ * 0 without valid pixels.
+ */
+VTKXPREGISTRATION_EXPORT double HalvesApart(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving,
+  const std::vector<uint8_t>& mask, int columns, int rows, const Eigen::Vector2d& center, int bins, double initialStepPixels);
+
+/**
+ * The same question asked of both halves at once: `xray` registered under `drr` (the DRR's
+ * pixels that `mask` keeps) with a scale along each panel axis as well as the shift and rotation,
+ * about the valid pixels' centroid; returns how far apart that scale moves the centroids of the
+ * halves HalvesApart splits (pixels, the larger of the two splits), and the fitted motion in
+ * `motion` when given. One registration of all the valid pixels is far steadier on noisy images
+ * than two of half of them each. The X-ray moves, not the DRR: a DRR rendered only where the
+ * mask keeps pixels holds nothing between them, and a DRR moved over the X-ray brings those
+ * blanks in, which holds a search where it starts. So `xray` must hold its levels on every pixel
+ * (WholePanelLevels). 0 without valid pixels.
+ */
+VTKXPREGISTRATION_EXPORT double StretchedHalvesApart(const std::vector<uint16_t>& drr, const std::vector<uint16_t>& xray,
+  const std::vector<uint8_t>& mask, int columns, int rows, int bins, double initialStepPixels, Motion2D* motion = nullptr);
 
 /**
  * The 3D misalignment increment (about `isocenter`) whose projections best explain the 2D motions

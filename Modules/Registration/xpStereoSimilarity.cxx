@@ -57,6 +57,22 @@ PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& l
   return prepared;
 }
 
+std::vector<uint16_t> WholePanelLevels(const RegistrationView& item, const SimilarityLevels& levels)
+{
+  if (!levels.equalize)
+    return item.xray;
+  std::vector<uint16_t> ranks = EqualizedLevels(item.xray, item.mask);
+  if (!(levels.highPassSigmaMM > 0.0))
+    return ranks;
+  std::vector<float> structure(ranks.begin(), ranks.end());
+  SubtractLowPass(structure.data(), nullptr, item.view.Columns(), item.view.Rows(), HighPassPixels(levels.highPassSigmaMM, item.view));
+  LevelTable table;
+  table.Build(structure.data(), item.mask.empty() ? nullptr : item.mask.data(), static_cast<long long>(structure.size()));
+  for (size_t i = 0; i < structure.size(); ++i)
+    ranks[i] = table(structure[i]);
+  return ranks;
+}
+
 StereoSimilarity::StereoSimilarity(const AttenuationVolume& volume, const Eigen::Isometry3d& plannedCTToRoom,
   const Eigen::Vector3d& roomIsocenter, std::vector<RegistrationView> views, int bins, const SimilarityLevels& levels)
   : Volume(volume)

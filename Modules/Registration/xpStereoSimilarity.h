@@ -72,6 +72,14 @@ struct PreparedXRay
  *  xp::InputError when the X-ray or its mask does not cover the view's panel. */
 VTKXPREGISTRATION_EXPORT PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& levels);
 
+/**
+ * The X-ray's MI levels on every pixel of its panel, where PrepareXRay's are 0 outside the mask:
+ * the valid pixels' ranks and level table, the shading removed over the whole panel. For a
+ * search that moves the X-ray under a masked DRR (the gate's halves), so that what the move
+ * brings in is anatomy and not the mask's blanks. Without equalisation, the X-ray as it is.
+ */
+VTKXPREGISTRATION_EXPORT std::vector<uint16_t> WholePanelLevels(const RegistrationView& item, const SimilarityLevels& levels);
+
 class VTKXPREGISTRATION_EXPORT StereoSimilarity
 {
 public:
@@ -99,6 +107,8 @@ public:
   /** The images as MI sees them: equalised levels, or the X-ray and the DRR as they are. */
   const std::vector<uint16_t>& XRayLevels(size_t v) const { return this->MI[v]->XRayLevels(); }
   const std::vector<uint16_t>& LastDRRLevels(size_t v) const;
+  /** The intensity preparation this similarity measures with. */
+  SimilarityLevels Levels() const { return { this->Equalize, this->HighPassMM, this->CorrelationMM }; }
   long long RenderedDRRs() const { return this->DRRCount; }
   /**
    * Render the DRR's rays on every `stride.columns`-th pixel of each row and on every

@@ -457,6 +457,65 @@ TEST(PreAlignment, InverseProjectionOfProjectedMotionsGivesTheTranslation)
   EXPECT_NEAR(update.yaw, 0.0, 1e-9);
 }
 
+namespace
+{
+
+/** A 160 x 120 texture of soft blobs (12-bit), seen with its rows stretched by `stretch` about
+ *  the middle row, plus Gaussian noise of sd `noise` levels. */
+std::vector<uint16_t> Blobs(double stretch, double noise, unsigned seed)
+{
+  std::mt19937 layout(11), random(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> gaussian(0.0, 1.0);
+  std::vector<Eigen::Vector3d> blobs; // column, row, weight
+  for (int b = 0; b < 400; ++b)
+    blobs.emplace_back(160.0 * uniform(layout), 120.0 * uniform(layout), uniform(layout) < 0.5 ? -1.0 : 1.0);
+  std::vector<uint16_t> image(160 * 120);
+  for (int r = 0; r < 120; ++r)
+    for (int c = 0; c < 160; ++c)
+    {
+      const double row = 59.5 + (r - 59.5) / stretch;
+      double value = 2048.0;
+      for (const Eigen::Vector3d& blob : blobs)
+        value += 600.0 * blob[2] * std::exp(-(std::pow(c - blob[0], 2) + std::pow(row - blob[1], 2)) / (2.0 * 2.5 * 2.5));
+      image[static_cast<size_t>(r) * 160 + c] = static_cast<uint16_t>(std::clamp(std::lround(value + noise * gaussian(random)), 0L, 4095L));
+    }
+  return image;
+}
+
+} // namespace
+
+TEST(PreAlignment, TheHalvesOfAStretchedImageRegisterApartThroughTheMasksBlanks)
+{
+  // A DRR rendered only in 4 x 4 blocks of a checkerboard (0 between them, as the entropy mask
+  // leaves it), an X-ray of the same texture 10 % longer along the rows: the halves above and
+  // below the middle row match about 3 pixels up and down (their centroids lie 60 rows apart).
+  // Each half moving the DRR's blanks over the X-ray stays near its start; the X-ray stretched
+  // under the whole DRR finds the stretch and the halves' distance.
+  std::vector<uint8_t> mask(160 * 120);
+  for (int r = 0; r < 120; ++r)
+    for (int c = 0; c < 160; ++c)
+      mask[static_cast<size_t>(r) * 160 + c] = ((r / 4) + (c / 4)) % 2 == 0;
+  std::vector<uint16_t> drr = Blobs(1.0, 0.0, 1);
+  for (size_t i = 0; i < drr.size(); ++i)
+    drr[i] = mask[i] ? drr[i] : 0;
+  const std::vector<uint16_t> longer = Blobs(1.1, 40.0, 2), same = Blobs(1.0, 40.0, 3);
+  const Eigen::Vector2d centre(79.5, 59.5);
+  xp::Motion2D motion;
+  const double together = xp::StretchedHalvesApart(drr, longer, mask, 160, 120, 32, 3.0, &motion);
+  const double separately = xp::HalvesApart(longer, drr, mask, 160, 120, centre, 32, 3.0);
+  const double sameTogether = xp::StretchedHalvesApart(drr, same, mask, 160, 120, 32, 3.0);
+  std::printf("halves apart on the 10 %% longer texture: %.2f pixels at once (scale %.3f x %.3f), %.2f each on its own; "
+              "%.2f at once on the same texture\n", together, motion.scale[0], motion.scale[1], separately, sameTogether);
+  EXPECT_NEAR(motion.scale[1], 1.0 / 1.1, 0.01); // the X-ray's rows shrunk back onto the DRR's
+  EXPECT_NEAR(motion.scale[0], 1.0, 0.01);
+  EXPECT_GT(together, 4.5);
+  EXPECT_LT(separately, 3.0);
+  EXPECT_LT(sameTogether, 0.5);
+  EXPECT_DOUBLE_EQ(xp::StretchedHalvesApart(drr, drr, std::vector<uint8_t>(160 * 120, 0), 160, 120, 32, 3.0), 0.0);
+  EXPECT_THROW(xp::StretchedHalvesApart(drr, drr, std::vector<uint8_t>(10, 1), 160, 120, 32, 3.0), xp::InputError);
+}
+
 TEST(PreAlignment, BringsALargeMisalignmentIntoTheFineRange)
 {
   Scene scene;
@@ -1274,6 +1333,25 @@ TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
     xp::RegisterStereo(cropped.volume, cropped.planned, Eigen::Vector3d::Zero(), Simulate(full, truth, 6), settings);
   EXPECT_FALSE(result.ok) << result.misalignment.ToString();
   EXPECT_TRUE(FailedWith(result, xp::GateCode::UncoveredAnatomy)) << Described(result);
+}
+
+TEST(StereoRegistrationGate, TheHalvesOfAnAnatomyTenPercentLongerDisagree)
+{
+  // X-rays of the head 10 % longer along its slice axis (about the same centre), registered with
+  // the head as it is: no rigid pose fits both ends, so each view's halves, registered on their
+  // own, must end apart. Their searches move the X-ray under the DRR's half; moving the DRR
+  // over the masked-out blanks pinned each half where it started.
+  const Scene planned;
+  xp::CTVolumeData longer = planned.ct;
+  longer.origin[2] -= 0.05 * longer.spacing[2] * (longer.dimensions[2] - 1);
+  longer.spacing[2] *= 1.1;
+  const Scene xrays(longer);
+  ASSERT_LT((xrays.planned.translation() - planned.planned.translation()).norm(), 1e-9);
+  const xp::Pose truth = xp::Pose::Parse("2,-3,1,1,-1,0.5", "truth");
+  const xp::StereoRegistrationResult result =
+    xp::RegisterStereo(planned.volume, planned.planned, Eigen::Vector3d::Zero(), Simulate(xrays, truth, 7));
+  EXPECT_FALSE(result.ok) << result.misalignment.ToString();
+  EXPECT_TRUE(FailedWith(result, xp::GateCode::HalvesDisagree)) << Described(result);
 }
 
 TEST(StereoRegistrationFormats, RawAndLogXRaysOfAnyDepthGiveTheSameAnswer)
