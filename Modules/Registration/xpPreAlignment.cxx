@@ -8,6 +8,7 @@
 #include <vtkSMPTools.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace xp
@@ -150,6 +151,20 @@ Motion2D SearchMotion2D(const std::vector<uint16_t>& fixed, const std::vector<ui
   return motion;
 }
 
+/** The columns and the rows of the pixels `mask` keeps, each sorted. */
+std::array<std::vector<int>, 2> SortedValidColumnsAndRows(const std::vector<uint8_t>& mask, int columns, int rows)
+{
+  if (mask.size() != static_cast<size_t>(columns) * rows)
+    throw InputError("halves' 2D registration", "the mask's size differs from the images'");
+  std::array<std::vector<int>, 2> valid;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+      if (mask[static_cast<size_t>(r) * columns + c])
+        valid[0].push_back(c), valid[1].push_back(r);
+  std::sort(valid[0].begin(), valid[0].end()); // the rows come sorted
+  return valid;
+}
+
 } // namespace
 
 Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, int columns, int rows,
@@ -161,18 +176,10 @@ Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16
 double HalvesApart(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, const std::vector<uint8_t>& mask,
   int columns, int rows, const Eigen::Vector2d& center, int bins, double initialStepPixels)
 {
-  if (mask.size() != static_cast<size_t>(columns) * rows)
-    throw InputError("halves' 2D registration", "the mask's size differs from the images'");
-  std::vector<int> validColumns, validRows;
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < columns; ++c)
-      if (mask[static_cast<size_t>(r) * columns + c])
-        validColumns.push_back(c), validRows.push_back(r);
-  if (validColumns.empty())
+  const std::array<std::vector<int>, 2> valid = SortedValidColumnsAndRows(mask, columns, rows);
+  if (valid[0].empty())
     return 0.0;
-  std::nth_element(validColumns.begin(), validColumns.begin() + validColumns.size() / 2, validColumns.end());
-  std::nth_element(validRows.begin(), validRows.begin() + validRows.size() / 2, validRows.end());
-  const int medianColumn = validColumns[validColumns.size() / 2], medianRow = validRows[validRows.size() / 2];
+  const int medianColumn = valid[0][valid[0].size() / 2], medianRow = valid[1][valid[1].size() / 2];
   double apart = 0.0;
   for (int split = 0; split < 2; ++split)
   {
@@ -194,27 +201,22 @@ double HalvesApart(const std::vector<uint16_t>& fixed, const std::vector<uint16_
 double StretchedHalvesApart(const std::vector<uint16_t>& drr, const std::vector<uint16_t>& xray, const std::vector<uint8_t>& mask,
   int columns, int rows, int bins, double initialStepPixels, Motion2D* motion)
 {
-  if (mask.size() != static_cast<size_t>(columns) * rows)
-    throw InputError("halves' 2D registration", "the mask's size differs from the images'");
-  std::vector<int> validColumns, validRows;
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < columns; ++c)
-      if (mask[static_cast<size_t>(r) * columns + c])
-        validColumns.push_back(c), validRows.push_back(r);
-  if (validColumns.empty())
+  const std::array<std::vector<int>, 2> valid = SortedValidColumnsAndRows(mask, columns, rows);
+  if (valid[0].empty())
     return 0.0;
-  // The halves' centroids along each axis: the mean of the valid pixels below and above the median.
+  // The halves' centroids along each axis: the means of the valid pixels before and from the
+  // median (HalvesApart's split), and the valid pixels' centroid.
   Eigen::Vector2d centroid, between;
   for (int axis = 0; axis < 2; ++axis)
   {
-    std::vector<int>& values = axis == 0 ? validColumns : validRows;
-    std::sort(values.begin(), values.end());
-    const size_t median = values.size() / 2;
+    const std::vector<int>& values = valid[axis];
+    const int median = values[values.size() / 2];
     double below = 0.0, above = 0.0;
-    for (size_t i = 0; i < values.size(); ++i)
-      (i < median ? below : above) += values[i];
+    size_t belowCount = 0;
+    for (int value : values)
+      value < median ? (below += value, ++belowCount) : (above += value);
     centroid[axis] = (below + above) / values.size();
-    between[axis] = median > 0 ? above / (values.size() - median) - below / median : 0.0;
+    between[axis] = belowCount > 0 ? above / (values.size() - belowCount) - below / belowCount : 0.0;
   }
   const Motion2D found = SearchMotion2D(drr, xray, columns, rows, centroid, mask.data(), bins, initialStepPixels, true);
   if (motion)
