@@ -93,12 +93,14 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
   search.toleranceMM = 0.1;
   search.toleranceDegrees = 0.05;
   search.maxRestarts = 3;
-  // With quarter-size travel, the travel (2 mm pixels at the isocentre at 512x384) stops at twice
-  // the search's tolerances, and the search goes on at half size from it with a quarter of its
-  // simplex.
+  // With quarter-size travel, the travel (2 mm pixels at the isocentre at 512x384) stops at half
+  // a pixel (ten times the search's tolerances): finer steps on these images only creep along the
+  // peak that the half-size search resolves. The search goes on at half size from it with a
+  // quarter of its simplex. Each of the second track's stages stops once it meets the first
+  // track's end at the same size.
   PoseOptimizerSettings travel = search, afterTravel = search;
-  travel.toleranceMM = 2.0 * search.toleranceMM;
-  travel.toleranceDegrees = 2.0 * search.toleranceDegrees;
+  travel.toleranceMM = 10.0 * search.toleranceMM;
+  travel.toleranceDegrees = 10.0 * search.toleranceDegrees;
   afterTravel.initialStepMM = 0.25 * search.initialStepMM;
   afterTravel.initialStepDegrees = 0.25 * search.initialStepDegrees;
   const bool economy = settings.schedule == ScheduleChoice::Economy;
@@ -114,6 +116,7 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
                                                                  : "second coarse search (quarter resolution)", 4, from, 0.5 * (from + to));
       stage.track = track;
       stage.optimizer = travel;
+      stage.stopAtFirstEnd = track == 1;
       stages.push_back(stage);
     }
     ScheduledStage stage = Stage(StageKind::Search, name, coarse, travels ? 0.5 * (from + to) : from, to);
@@ -146,7 +149,7 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
         stage.optimizer.toleranceMM = 2.0 * search.toleranceMM;
         stage.optimizer.toleranceDegrees = 2.0 * search.toleranceDegrees;
       }
-      if (stage.stopAtFirstEnd)
+      if (stage.stopAtFirstEnd && stage.imageDivisor != 4)
         stage.optimizer.maxEvaluations = std::min(stage.optimizer.maxEvaluations, 60);
     }
     refinement.optimizer.toleranceMM = 2.0 * refinement.optimizer.toleranceMM;

@@ -58,9 +58,9 @@ struct ScheduledStage
   /** Searches, refinement and restarts: the optimiser, its first steps, its stop on change (mm,
    *  degrees) and its evaluation budget. */
   PoseOptimizerSettings optimizer;
-  /** A search: track 1's last stage stops at the first pose that agrees with track 0's end,
-   *  about as high; it searches the images track 0 ended on, so that the two ends' objectives
-   *  compare. The refinement: the second end's refinement stops likewise at the first end's. */
+  /** A search: a track 1 stage stops at the first pose that agrees with track 0's end at the
+   *  same image size, about as high (so that the two objectives compare). The refinement: the
+   *  second end's refinement stops likewise at the first end's. */
   bool stopAtFirstEnd = false;
   int rounds = 0; ///< pre-alignment: most iterations; polish: rounds; restarts: how many
   double progressFrom = 0.0, progressTo = 1.0; ///< its share of the progress reported

@@ -764,6 +764,7 @@ public:
   {
     const std::vector<ScheduledStage>& stages = this->Result.schedule.stages;
     std::array<std::optional<PoseOptimizerResult>, 2> trackEnds;
+    std::map<int, PoseOptimizerResult> firstTrackEnds; // track 0's end at each image size
     SearchEnds searchEnds;
     Refined refined;
     Clock::time_point sixDOFStart{};
@@ -798,10 +799,13 @@ public:
           if (!trackEnds[0] && !trackEnds[1])
             sixDOFStart = Clock::now();
           std::optional<PoseOptimizerResult>& track = trackEnds[stage.track];
+          const auto firstEnd = firstTrackEnds.find(stage.imageDivisor);
           const PoseOptimizerResult found = this->Search(stage, track ? track->pose : this->TrackStart(stage.track),
-            stage.stopAtFirstEnd && trackEnds[0] ? &*trackEnds[0] : nullptr);
+            stage.stopAtFirstEnd && firstEnd != firstTrackEnds.end() ? &firstEnd->second : nullptr);
           this->Result.evaluations += found.evaluations;
           track = found;
+          if (stage.track == 0)
+            firstTrackEnds[stage.imageDivisor] = found;
           if (s + 1 == stages.size() || stages[s + 1].kind != StageKind::Search)
           {
             this->Trace.End();
@@ -1042,9 +1046,9 @@ private:
     return *similarity;
   }
 
-  /** Step 3a: one search stage from `from`. Track 1's last stage stops once it evaluates a pose
-   *  that agrees with track 0's end (`firstEnd`) about as high: the rest of its travel would only
-   *  polish the same optimum (judged at the size track 0 ended). */
+  /** Step 3a: one search stage from `from`. A track 1 stage stops once it evaluates a pose that
+   *  agrees with track 0's end at the same image size (`firstEnd`) about as high: the rest of its
+   *  travel would only polish the same optimum. */
   PoseOptimizerResult Search(const ScheduledStage& stage, const Pose& from, const PoseOptimizerResult* firstEnd)
   {
     this->Trace.Begin(stage.name, stage.imageDivisor);
