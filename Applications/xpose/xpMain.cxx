@@ -124,7 +124,7 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
   command->add_option("--max-view-residual", settings.maxViewResidual,
     "Gate: mm (at the isocentre) a view's own 2D registration may still move")->capture_default_str();
   command->add_option("--max-halves-apart-mm", settings.maxHalvesApartMM,
-    "Gate: mm (at the isocentre) that a view's two halves, each registered on its own, may end apart")->capture_default_str();
+    "Gate: mm (at the isocentre) that a view's two halves may end apart, registered each on its own and both at once (the larger)")->capture_default_str();
   command->add_option("--max-uncovered", settings.maxUncovered,
     "Gate: fraction of a view's valid pixels that may show anatomy the CT does not cover")->capture_default_str();
   command->add_option("--max-search-apart-mm", settings.maxSearchDisagreementMM,

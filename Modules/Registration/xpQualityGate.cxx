@@ -214,7 +214,7 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
     if (!(view.halvesApartMM <= settings.maxHalvesApartMM))
       failures.push_back({ GateCode::HalvesDisagree, index,
         "view " + view.name +
-          Format(": its two halves, each registered on its own, end %.2f mm apart (> %.2f mm): the anatomy does not "
+          Format(": its two halves, registered each on its own and both at once, end %.2f mm apart (> %.2f mm): the anatomy does not "
                  "fit one rigid pose (another patient, or a changed one)",
             view.halvesApartMM, settings.maxHalvesApartMM) });
     if (!(view.residualMM <= settings.maxViewResidual && std::abs(view.residualDegrees) <= settings.maxViewResidualDegrees))
