@@ -62,7 +62,8 @@ struct ViewEvidence
   double residualMM = 0.0;        ///< the view's own 2D registration's shift, mm at the isocentre
   double residualDegrees = 0.0;   ///< and in-plane rotation
   /** The largest distance (mm at the isocentre) between the 2D registrations of the view's two
-   *  halves (left/right, top/bottom), each on its own. */
+   *  halves (left/right, top/bottom), each on its own (HalvesApart) or both at once with a
+   *  stretch (StretchedHalvesApart). */
   double halvesApartMM = 0.0;
 };
 

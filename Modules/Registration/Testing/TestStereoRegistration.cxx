@@ -1338,9 +1338,9 @@ TEST(StereoRegistrationGate, FailsWhenTheCTDoesNotCoverTheXRays)
 TEST(StereoRegistrationGate, TheHalvesOfAnAnatomyTenPercentLongerDisagree)
 {
   // X-rays of the head 10 % longer along its slice axis (about the same centre), registered with
-  // the head as it is: no rigid pose fits both ends, so each view's halves, registered on their
-  // own, must end apart. Their searches move the X-ray under the DRR's half; moving the DRR
-  // over the masked-out blanks pinned each half where it started.
+  // the head as it is: no rigid pose fits both ends, so each view's halves must end apart and the
+  // gate fail the result for it. (The phantom's mask leaves few blanks: the halves each on their
+  // own catch it too; the texture test above is the one the blanks decide.)
   const Scene planned;
   xp::CTVolumeData longer = planned.ct;
   longer.origin[2] -= 0.05 * longer.spacing[2] * (longer.dimensions[2] - 1);
