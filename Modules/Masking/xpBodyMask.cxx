@@ -9,6 +9,7 @@
 #include <vtkType.h>
 
 #include <algorithm>
+#include <atomic>
 
 namespace xp
 {
@@ -18,43 +19,77 @@ namespace
 
 using Index = long long;
 
-/**
- * The voxels of `inside` whose 6-connected component holds at least `fraction` of the largest
- * one's voxels; empty when nothing is inside. Components are joined from runs along x (a run
- * meets the runs of the row before it in its slice and of its row in the slice before wherever
- * they share a column), by union-find over the runs: a few hundred thousand runs where a voxel
- * walk visits tens of millions of voxels.
- */
-std::vector<uint8_t> KeepLargeComponents(const std::vector<uint8_t>& inside, const Eigen::Vector3i& d, double fraction)
+/** f(i) for every voxel index below `count`, on all threads. */
+template <typename Function>
+void ForVoxels(size_t count, Function&& f)
 {
-  const Index nx = d[0], rows = static_cast<Index>(d[1]) * d[2];
+  vtkSMPTools::For(size_t{ 0 }, count,
+    [&](size_t i0, size_t i1)
+    {
+      for (size_t i = i0; i < i1; ++i)
+        f(i);
+    });
+}
+
+/**
+ * Keeps, in `inside`, the voxels whose 6-connected component holds at least `fraction` of the
+ * largest one's voxels; clears the rest (all of it when nothing is inside). Components are
+ * joined from runs along x (a run meets the runs of the row before it in its slice and of its
+ * row in the slice before wherever they share a column), by union-find over the runs: a few
+ * hundred thousand runs where a voxel walk visits tens of millions of voxels. The runs are found
+ * slice by slice on all threads.
+ */
+void KeepLargeComponents(std::vector<uint8_t>& inside, const Eigen::Vector3i& d, double fraction)
+{
+  const Index nx = d[0], ny = d[1], nz = d[2], rows = ny * nz;
   struct Run
   {
     int begin, end; // columns [begin, end)
   };
-  std::vector<Run> runs;
+  // Each slice's runs found on its own thread, then laid end to end in slice order.
+  std::vector<std::vector<Run>> sliceRuns(static_cast<size_t>(nz));
   std::vector<size_t> rowStart(static_cast<size_t>(rows) + 1, 0);
-  for (Index r = 0; r < rows; ++r)
-  {
-    rowStart[r] = runs.size();
-    const uint8_t* row = inside.data() + r * nx;
-    for (int x = 0; x < nx;)
+  vtkSMPTools::For(Index{ 0 }, nz, Index{ 1 },
+    [&](Index z0, Index z1)
     {
-      if (!row[x])
+      for (Index z = z0; z < z1; ++z)
       {
-        ++x;
-        continue;
+        std::vector<Run>& found = sliceRuns[z];
+        for (Index y = 0; y < ny; ++y)
+        {
+          rowStart[z * ny + y] = found.size(); // within the slice, until the slices are joined
+          const uint8_t* row = inside.data() + (z * ny + y) * nx;
+          for (int x = 0; x < nx;)
+          {
+            if (!row[x])
+            {
+              ++x;
+              continue;
+            }
+            const int begin = x;
+            while (x < nx && row[x])
+              ++x;
+            found.push_back({ begin, x });
+          }
+        }
       }
-      const int begin = x;
-      while (x < nx && row[x])
-        ++x;
-      runs.push_back({ begin, x });
-    }
+    });
+  std::vector<Run> runs;
+  for (Index z = 0; z < nz; ++z)
+  {
+    const size_t offset = runs.size();
+    for (Index y = 0; y < ny; ++y)
+      rowStart[z * ny + y] += offset;
+    runs.insert(runs.end(), sliceRuns[z].begin(), sliceRuns[z].end());
+    std::vector<Run>().swap(sliceRuns[z]);
   }
   rowStart[rows] = runs.size();
-  std::vector<uint8_t> kept(inside.size(), 0);
+  // The runs hold the voxels now: `inside` is rewritten with the kept ones (no second copy of
+  // the volume's size to allocate).
+  std::vector<uint8_t>& kept = inside;
+  std::fill(kept.begin(), kept.end(), uint8_t{ 0 });
   if (runs.empty())
-    return kept;
+    return;
 
   std::vector<size_t> parent(runs.size());
   for (size_t i = 0; i < parent.size(); ++i)
@@ -83,7 +118,6 @@ std::vector<uint8_t> KeepLargeComponents(const std::vector<uint8_t>& inside, con
         ++j;
     }
   };
-  const Index ny = d[1];
   for (Index r = 0; r < rows; ++r)
   {
     if (r % ny > 0)
@@ -95,49 +129,93 @@ std::vector<uint8_t> KeepLargeComponents(const std::vector<uint8_t>& inside, con
   for (size_t i = 0; i < runs.size(); ++i)
     size[root(i)] += runs[i].end - runs[i].begin;
   const Index largest = *std::max_element(size.begin(), size.end());
-  for (Index r = 0; r < rows; ++r)
-    for (size_t i = rowStart[r]; i < rowStart[r + 1]; ++i)
-      if (size[root(i)] >= fraction * largest)
-        std::fill(kept.begin() + r * nx + runs[i].begin, kept.begin() + r * nx + runs[i].end, uint8_t{ 1 });
-  return kept;
+  std::vector<uint8_t> keep(runs.size());
+  for (size_t i = 0; i < runs.size(); ++i)
+    keep[i] = size[root(i)] >= fraction * largest;
+  vtkSMPTools::For(Index{ 0 }, rows,
+    [&](Index r0, Index r1)
+    {
+      for (Index r = r0; r < r1; ++r)
+        for (size_t i = rowStart[r]; i < rowStart[r + 1]; ++i)
+          if (keep[i])
+            std::fill(kept.begin() + r * nx + runs[i].begin, kept.begin() + r * nx + runs[i].end, uint8_t{ 1 });
+    });
 }
 
 /** Fills each slice's cavities: what the outside cannot reach from the slice border is body.
- *  Slices are independent: they run on all threads. */
+ *  The outside is found run by run: each row's runs of non-body pixels, joined with the runs of
+ *  the row before that share a column (4-connected), by union-find; the runs joined to one on the
+ *  border are outside. Slices are independent: they run on all threads. */
 void FillSliceCavities(std::vector<uint8_t>& body, const Eigen::Vector3i& d)
 {
   const Index nx = d[0], ny = d[1], slice = nx * ny;
   vtkSMPTools::For(Index{ 0 }, Index{ d[2] }, Index{ 1 },
     [&](Index firstSlice, Index endSlice)
     {
-      std::vector<uint8_t> outside(static_cast<size_t>(slice));
-      std::vector<Index> stack;
+      struct Run
+      {
+        Index row;
+        int begin, end; // columns [begin, end)
+      };
+      std::vector<Run> runs;
+      std::vector<size_t> rowStart(static_cast<size_t>(ny) + 1), parent;
+      std::vector<uint8_t> border;
+      const auto root = [&](size_t i)
+      {
+        while (parent[i] != i)
+          i = parent[i] = parent[parent[i]];
+        return i;
+      };
       for (Index z = firstSlice; z < endSlice; ++z)
       {
         uint8_t* b = body.data() + z * slice;
-        std::fill(outside.begin(), outside.end(), 0);
-        stack.clear();
-        for (Index x = 0; x < nx; ++x)
-          for (Index y : { Index(0), ny - 1 })
-            stack.push_back(y * nx + x);
+        runs.clear();
         for (Index y = 0; y < ny; ++y)
-          for (Index x : { Index(0), nx - 1 })
-            stack.push_back(y * nx + x);
-        while (!stack.empty())
         {
-          const Index p = stack.back();
-          stack.pop_back();
-          if (b[p] || outside[p])
-            continue;
-          outside[p] = 1;
-          const Index x = p % nx;
-          if (x > 0) stack.push_back(p - 1);
-          if (x + 1 < nx) stack.push_back(p + 1);
-          if (p >= nx) stack.push_back(p - nx);
-          if (p + nx < slice) stack.push_back(p + nx);
+          rowStart[y] = runs.size();
+          const uint8_t* row = b + y * nx;
+          for (int x = 0; x < nx;)
+          {
+            if (row[x])
+            {
+              ++x;
+              continue;
+            }
+            const int begin = x;
+            while (x < nx && !row[x])
+              ++x;
+            runs.push_back({ y, begin, x });
+          }
         }
-        for (Index p = 0; p < slice; ++p)
-          b[p] = !outside[p];
+        rowStart[ny] = runs.size();
+        parent.resize(runs.size());
+        for (size_t i = 0; i < parent.size(); ++i)
+          parent[i] = i;
+        for (Index y = 1; y < ny; ++y)
+        {
+          size_t i = rowStart[y], j = rowStart[y - 1];
+          while (i < rowStart[y + 1] && j < rowStart[y])
+          {
+            if (runs[i].begin < runs[j].end && runs[j].begin < runs[i].end)
+            {
+              const size_t p = root(i), q = root(j);
+              if (p != q)
+                parent[std::max(p, q)] = std::min(p, q);
+            }
+            if (runs[i].end < runs[j].end)
+              ++i;
+            else
+              ++j;
+          }
+        }
+        border.assign(runs.size(), 0);
+        for (size_t i = 0; i < runs.size(); ++i)
+          if (runs[i].row == 0 || runs[i].row == ny - 1 || runs[i].begin == 0 || runs[i].end == nx)
+            border[root(i)] = 1;
+        std::fill(b, b + slice, uint8_t{ 1 });
+        for (size_t i = 0; i < runs.size(); ++i)
+          if (border[root(i)])
+            std::fill(b + runs[i].row * nx + runs[i].begin, b + runs[i].row * nx + runs[i].end, uint8_t{ 0 });
       }
     });
 }
@@ -205,27 +283,36 @@ std::vector<uint8_t> SegmentBody(const float* hu, const Eigen::Vector3i& dims, c
     throw InputError("body mask", "the CT is empty");
   }
   const size_t count = static_cast<size_t>(dims[0]) * dims[1] * dims[2];
-  std::vector<uint8_t> tissue(count);
-  for (size_t i = 0; i < count; ++i)
-    tissue[i] = hu[i] > settings.thresholdHU;
+  const double threshold = settings.thresholdHU;
   // Opening: an erosion removes thin shells (a table's carbon skin, a mask's mesh) before the
-  // components are counted, so that they cannot join the body or count as a limb.
+  // components are counted, so that they cannot join the body or count as a limb. The erosion
+  // is the dilation of what is not tissue.
   std::vector<uint8_t> core(count);
-  for (size_t i = 0; i < count; ++i)
-    core[i] = !tissue[i];
+  ForVoxels(count, [&](size_t i) { core[i] = !(hu[i] > threshold); });
   DilateSlices(core, dims, settings.openingRadius);
-  for (uint8_t& v : core)
-    v = !v;
-  if (std::find(core.begin(), core.end(), uint8_t{ 1 }) == core.end())
+  std::atomic<bool> anyCore{ false };
+  vtkSMPTools::For(size_t{ 0 }, count,
+    [&](size_t i0, size_t i1)
+    {
+      bool any = false;
+      for (size_t i = i0; i < i1; ++i)
+      {
+        core[i] = !core[i];
+        any |= core[i] != 0;
+      }
+      if (any)
+        anyCore = true;
+    });
+  if (!anyCore)
   {
     throw InputError("body mask", "no part of the CT above " + std::to_string(settings.thresholdHU) +
         " HU is thicker than " + std::to_string(2 * settings.openingRadius + 1) + " voxels");
   }
-  std::vector<uint8_t> body = KeepLargeComponents(core, dims, settings.minComponentFraction);
+  KeepLargeComponents(core, dims, settings.minComponentFraction);
+  std::vector<uint8_t> body = std::move(core);
   // Back to the tissue's own outline: what the opening took from the kept parts.
   DilateSlices(body, dims, settings.openingRadius + 1);
-  for (size_t i = 0; i < count; ++i)
-    body[i] = body[i] && tissue[i];
+  ForVoxels(count, [&](size_t i) { body[i] = body[i] && hu[i] > threshold; });
   FillSliceCavities(body, dims);
   if (settings.dilation > 0)
     DilateSlices(body, dims, settings.dilation);
@@ -234,13 +321,19 @@ std::vector<uint8_t> SegmentBody(const float* hu, const Eigen::Vector3i& dims, c
 
 long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body)
 {
-  long long changed = 0;
-  for (size_t i = 0; i < body.size(); ++i)
-    if (!body[i] && hu[i] != -1000.0f)
+  std::atomic<long long> changed{ 0 };
+  vtkSMPTools::For(size_t{ 0 }, body.size(),
+    [&](size_t i0, size_t i1)
     {
-      hu[i] = -1000.0f;
-      ++changed;
-    }
+      long long here = 0;
+      for (size_t i = i0; i < i1; ++i)
+        if (!body[i] && hu[i] != -1000.0f)
+        {
+          hu[i] = -1000.0f;
+          ++here;
+        }
+      changed += here;
+    });
   return changed;
 }
 
@@ -261,9 +354,8 @@ vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings&
   switch (scalars->GetDataType())
   {
     // The stored type's values as floats, without a virtual call per voxel.
-    vtkTemplateMacro(std::transform(static_cast<const VTK_TT*>(scalars->GetVoidPointer(0)),
-      static_cast<const VTK_TT*>(scalars->GetVoidPointer(0)) + count, to,
-      [](VTK_TT value) { return static_cast<float>(static_cast<double>(value)); }));
+    vtkTemplateMacro(const VTK_TT* from = static_cast<const VTK_TT*>(scalars->GetVoidPointer(0));
+      ForVoxels(static_cast<size_t>(count), [&](size_t i) { to[i] = static_cast<float>(static_cast<double>(from[i])); }));
     default:
       for (vtkIdType i = 0; i < count; ++i)
         to[i] = static_cast<float>(scalars->GetTuple1(i));
@@ -274,10 +366,17 @@ vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings&
   const std::vector<uint8_t> inBody = SegmentBody(values->GetPointer(0), Eigen::Vector3i(dims[0], dims[1], dims[2]), settings);
   if (table)
   {
-    const float dense = static_cast<float>(settings.tableHU);
-    *table = 0;
-    for (size_t i = 0; i < inBody.size(); ++i)
-      *table += !inBody[i] && to[i] > dense;
+    const float denseHU = static_cast<float>(settings.tableHU);
+    std::atomic<long long> dense{ 0 };
+    vtkSMPTools::For(size_t{ 0 }, inBody.size(),
+      [&](size_t i0, size_t i1)
+      {
+        long long here = 0;
+        for (size_t i = i0; i < i1; ++i)
+          here += !inBody[i] && to[i] > denseHU;
+        dense += here;
+      });
+    *table = dense;
   }
   const long long cleared = ClearOutsideBody(values->GetPointer(0), inBody);
   if (removed)
