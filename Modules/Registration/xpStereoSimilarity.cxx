@@ -26,6 +26,22 @@ double HighPassPixels(double sigmaMM, const XRayView& view)
   return std::max(3.0, sigmaMM / view.pixelSpacing[0]);
 }
 
+/**
+ * Ranks less their shading, ranked again: `levels` minus its low-pass (`sigmaMM` on the panel,
+ * over `lowPassMask`'s pixels, every pixel without one), mapped through the level table of the
+ * pixels `mask` keeps; with `clearOutside`, those it leaves out are 0.
+ */
+void RankWithoutShading(std::vector<uint16_t>& levels, const uint8_t* lowPassMask, const uint8_t* mask, bool clearOutside,
+  const XRayView& view, double sigmaMM)
+{
+  std::vector<float> structure(levels.begin(), levels.end());
+  SubtractLowPass(structure.data(), lowPassMask, view.Columns(), view.Rows(), HighPassPixels(sigmaMM, view));
+  LevelTable table;
+  table.Build(structure.data(), mask, static_cast<long long>(structure.size()));
+  for (size_t i = 0; i < structure.size(); ++i)
+    levels[i] = (clearOutside && mask && !mask[i]) ? 0 : table(structure[i]);
+}
+
 } // namespace
 
 PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& levels)
@@ -45,15 +61,7 @@ PreparedXRay PrepareXRay(const RegistrationView& item, const SimilarityLevels& l
       levels.correlationHighPassMM / item.view.pixelSpacing[0]);
   }
   if (levels.equalize && levels.highPassSigmaMM > 0.0)
-  {
-    // Ranks, less their shading, ranked again.
-    std::vector<float> structure(prepared.levels.begin(), prepared.levels.end());
-    SubtractLowPass(structure.data(), mask, item.view.Columns(), item.view.Rows(), HighPassPixels(levels.highPassSigmaMM, item.view));
-    LevelTable table;
-    table.Build(structure.data(), mask, static_cast<long long>(pixels));
-    for (size_t i = 0; i < pixels; ++i)
-      prepared.levels[i] = (mask && !mask[i]) ? 0 : table(structure[i]);
-  }
+    RankWithoutShading(prepared.levels, mask, mask, true, item.view, levels.highPassSigmaMM);
   return prepared;
 }
 
@@ -62,14 +70,8 @@ std::vector<uint16_t> WholePanelLevels(const RegistrationView& item, const Simil
   if (!levels.equalize)
     return item.xray;
   std::vector<uint16_t> ranks = EqualizedLevels(item.xray, item.mask);
-  if (!(levels.highPassSigmaMM > 0.0))
-    return ranks;
-  std::vector<float> structure(ranks.begin(), ranks.end());
-  SubtractLowPass(structure.data(), nullptr, item.view.Columns(), item.view.Rows(), HighPassPixels(levels.highPassSigmaMM, item.view));
-  LevelTable table;
-  table.Build(structure.data(), item.mask.empty() ? nullptr : item.mask.data(), static_cast<long long>(structure.size()));
-  for (size_t i = 0; i < structure.size(); ++i)
-    ranks[i] = table(structure[i]);
+  if (levels.highPassSigmaMM > 0.0) // the shading over the whole panel, the table of the valid pixels
+    RankWithoutShading(ranks, nullptr, item.mask.empty() ? nullptr : item.mask.data(), false, item.view, levels.highPassSigmaMM);
   return ranks;
 }
 
