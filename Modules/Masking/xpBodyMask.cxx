@@ -31,6 +31,54 @@ void ForVoxels(size_t count, Function&& f)
     });
 }
 
+/** A run of set voxels along a row: columns [begin, end). */
+struct Run
+{
+  int begin, end;
+};
+
+/** Disjoint sets of runs (union-find, path halving; a set's root is its lowest run). */
+class RunSets
+{
+public:
+  explicit RunSets(size_t count = 0) { this->Reset(count); }
+  void Reset(size_t count)
+  {
+    this->Parent.resize(count);
+    for (size_t i = 0; i < count; ++i)
+      this->Parent[i] = i;
+  }
+  size_t Root(size_t i)
+  {
+    while (this->Parent[i] != i)
+      i = this->Parent[i] = this->Parent[this->Parent[i]];
+    return i;
+  }
+  /** Joins the runs [a0, a1) of one row with the runs [b0, b1) of another wherever they share a
+   *  column (each row's runs in column order). */
+  template <typename RowRun>
+  void JoinOverlapping(const std::vector<RowRun>& runs, size_t a0, size_t a1, size_t b0, size_t b1)
+  {
+    size_t i = a0, j = b0;
+    while (i < a1 && j < b1)
+    {
+      if (runs[i].begin < runs[j].end && runs[j].begin < runs[i].end)
+      {
+        const size_t a = this->Root(i), b = this->Root(j);
+        if (a != b)
+          this->Parent[std::max(a, b)] = std::min(a, b);
+      }
+      if (runs[i].end < runs[j].end)
+        ++i;
+      else
+        ++j;
+    }
+  }
+
+private:
+  std::vector<size_t> Parent;
+};
+
 /**
  * Keeps, in `inside`, the voxels whose 6-connected component holds at least `fraction` of the
  * largest one's voxels; clears the rest (all of it when nothing is inside). Components are
@@ -42,10 +90,6 @@ void ForVoxels(size_t count, Function&& f)
 void KeepLargeComponents(std::vector<uint8_t>& inside, const Eigen::Vector3i& d, double fraction)
 {
   const Index nx = d[0], ny = d[1], nz = d[2], rows = ny * nz;
-  struct Run
-  {
-    int begin, end; // columns [begin, end)
-  };
   // Each slice's runs found on its own thread, then laid end to end in slice order.
   std::vector<std::vector<Run>> sliceRuns(static_cast<size_t>(nz));
   std::vector<size_t> rowStart(static_cast<size_t>(rows) + 1, 0);
@@ -91,47 +135,24 @@ void KeepLargeComponents(std::vector<uint8_t>& inside, const Eigen::Vector3i& d,
   if (runs.empty())
     return;
 
-  std::vector<size_t> parent(runs.size());
-  for (size_t i = 0; i < parent.size(); ++i)
-    parent[i] = i;
-  const auto root = [&](size_t i)
-  {
-    while (parent[i] != i)
-      i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  // Joins the runs of row r with those of row q that share a column.
-  const auto joinRows = [&](Index r, Index q)
-  {
-    size_t i = rowStart[r], j = rowStart[q];
-    while (i < rowStart[r + 1] && j < rowStart[q + 1])
-    {
-      if (runs[i].begin < runs[j].end && runs[j].begin < runs[i].end)
-      {
-        const size_t a = root(i), b = root(j);
-        if (a != b)
-          parent[std::max(a, b)] = std::min(a, b);
-      }
-      if (runs[i].end < runs[j].end)
-        ++i;
-      else
-        ++j;
-    }
-  };
+  RunSets sets(runs.size());
+  // Each row's runs joined with the row's before it in its slice and the same row's in the
+  // slice before.
+  const auto joinRows = [&](Index r, Index q) { sets.JoinOverlapping(runs, rowStart[r], rowStart[r + 1], rowStart[q], rowStart[q + 1]); };
   for (Index r = 0; r < rows; ++r)
   {
     if (r % ny > 0)
-      joinRows(r, r - 1); // the row before, in the same slice
+      joinRows(r, r - 1);
     if (r >= ny)
-      joinRows(r, r - ny); // the same row, in the slice before
+      joinRows(r, r - ny);
   }
   std::vector<Index> size(runs.size(), 0);
   for (size_t i = 0; i < runs.size(); ++i)
-    size[root(i)] += runs[i].end - runs[i].begin;
+    size[sets.Root(i)] += runs[i].end - runs[i].begin;
   const Index largest = *std::max_element(size.begin(), size.end());
   std::vector<uint8_t> keep(runs.size());
   for (size_t i = 0; i < runs.size(); ++i)
-    keep[i] = size[root(i)] >= fraction * largest;
+    keep[i] = size[sets.Root(i)] >= fraction * largest;
   vtkSMPTools::For(Index{ 0 }, rows,
     [&](Index r0, Index r1)
     {
@@ -152,20 +173,14 @@ void FillSliceCavities(std::vector<uint8_t>& body, const Eigen::Vector3i& d)
   vtkSMPTools::For(Index{ 0 }, Index{ d[2] }, Index{ 1 },
     [&](Index firstSlice, Index endSlice)
     {
-      struct Run
+      struct RowRun : Run
       {
         Index row;
-        int begin, end; // columns [begin, end)
       };
-      std::vector<Run> runs;
-      std::vector<size_t> rowStart(static_cast<size_t>(ny) + 1), parent;
+      std::vector<RowRun> runs;
+      std::vector<size_t> rowStart(static_cast<size_t>(ny) + 1);
       std::vector<uint8_t> border;
-      const auto root = [&](size_t i)
-      {
-        while (parent[i] != i)
-          i = parent[i] = parent[parent[i]];
-        return i;
-      };
+      RunSets sets;
       for (Index z = firstSlice; z < endSlice; ++z)
       {
         uint8_t* b = body.data() + z * slice;
@@ -184,37 +199,24 @@ void FillSliceCavities(std::vector<uint8_t>& body, const Eigen::Vector3i& d)
             const int begin = x;
             while (x < nx && !row[x])
               ++x;
-            runs.push_back({ y, begin, x });
+            RowRun run;
+            run.begin = begin;
+            run.end = x;
+            run.row = y;
+            runs.push_back(run);
           }
         }
         rowStart[ny] = runs.size();
-        parent.resize(runs.size());
-        for (size_t i = 0; i < parent.size(); ++i)
-          parent[i] = i;
+        sets.Reset(runs.size());
         for (Index y = 1; y < ny; ++y)
-        {
-          size_t i = rowStart[y], j = rowStart[y - 1];
-          while (i < rowStart[y + 1] && j < rowStart[y])
-          {
-            if (runs[i].begin < runs[j].end && runs[j].begin < runs[i].end)
-            {
-              const size_t p = root(i), q = root(j);
-              if (p != q)
-                parent[std::max(p, q)] = std::min(p, q);
-            }
-            if (runs[i].end < runs[j].end)
-              ++i;
-            else
-              ++j;
-          }
-        }
+          sets.JoinOverlapping(runs, rowStart[y], rowStart[y + 1], rowStart[y - 1], rowStart[y]);
         border.assign(runs.size(), 0);
         for (size_t i = 0; i < runs.size(); ++i)
           if (runs[i].row == 0 || runs[i].row == ny - 1 || runs[i].begin == 0 || runs[i].end == nx)
-            border[root(i)] = 1;
+            border[sets.Root(i)] = 1;
         std::fill(b, b + slice, uint8_t{ 1 });
         for (size_t i = 0; i < runs.size(); ++i)
-          if (border[root(i)])
+          if (border[sets.Root(i)])
             std::fill(b + runs[i].row * nx + runs[i].begin, b + runs[i].row * nx + runs[i].end, uint8_t{ 0 });
       }
     });
