@@ -31,7 +31,7 @@ void ForVoxels(size_t count, Function&& f)
     });
 }
 
-/** A run of set voxels along a row: columns [begin, end). */
+/** A run of voxels along a row, columns [begin, end): set ones (the components) or clear ones (the cavities). */
 struct Run
 {
   int begin, end;
