@@ -138,7 +138,8 @@ void KeepLargeComponents(std::vector<uint8_t>& inside, const Eigen::Vector3i& d,
   RunSets sets(runs.size());
   // Each row's runs joined with the row's before it in its slice and the same row's in the
   // slice before.
-  const auto joinRows = [&](Index r, Index q) { sets.JoinOverlapping(runs, rowStart[r], rowStart[r + 1], rowStart[q], rowStart[q + 1]); };
+  const auto joinRows = [&](Index r, Index q)
+  { sets.JoinOverlapping(runs, rowStart[r], rowStart[r + 1], rowStart[q], rowStart[q + 1]); };
   for (Index r = 0; r < rows; ++r)
   {
     if (r % ny > 0)
