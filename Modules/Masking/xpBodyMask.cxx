@@ -31,6 +31,42 @@ void ForVoxels(size_t count, Function&& f)
     });
 }
 
+/** How many voxel indices below `count` f(i) is true for, on all threads (f may also write
+ *  voxel i). */
+template <typename Function>
+long long CountVoxels(size_t count, Function&& f)
+{
+  std::atomic<long long> total{ 0 };
+  vtkSMPTools::For(size_t{ 0 }, count,
+    [&](size_t i0, size_t i1)
+    {
+      long long here = 0;
+      for (size_t i = i0; i < i1; ++i)
+        here += f(i) ? 1 : 0;
+      total += here;
+    });
+  return total;
+}
+
+/** emit(begin, end) for each run of pixels equal to `value` (as a truth value) along a row of
+ *  `columns` pixels, in column order. */
+template <typename Emit>
+void ForRunsOf(const uint8_t* row, int columns, bool value, Emit&& emit)
+{
+  for (int x = 0; x < columns;)
+  {
+    if ((row[x] != 0) != value)
+    {
+      ++x;
+      continue;
+    }
+    const int begin = x;
+    while (x < columns && (row[x] != 0) == value)
+      ++x;
+    emit(begin, x);
+  }
+}
+
 /** A run of voxels along a row, columns [begin, end): set ones (the components) or clear ones (the cavities). */
 struct Run
 {
@@ -102,19 +138,8 @@ void KeepLargeComponents(std::vector<uint8_t>& inside, const Eigen::Vector3i& d,
         for (Index y = 0; y < ny; ++y)
         {
           rowStart[z * ny + y] = found.size(); // within the slice, until the slices are joined
-          const uint8_t* row = inside.data() + (z * ny + y) * nx;
-          for (int x = 0; x < nx;)
-          {
-            if (!row[x])
-            {
-              ++x;
-              continue;
-            }
-            const int begin = x;
-            while (x < nx && row[x])
-              ++x;
-            found.push_back({ begin, x });
-          }
+          ForRunsOf(inside.data() + (z * ny + y) * nx, static_cast<int>(nx), true,
+            [&](int begin, int end) { found.push_back({ begin, end }); });
         }
       }
     });
@@ -189,23 +214,15 @@ void FillSliceCavities(std::vector<uint8_t>& body, const Eigen::Vector3i& d)
         for (Index y = 0; y < ny; ++y)
         {
           rowStart[y] = runs.size();
-          const uint8_t* row = b + y * nx;
-          for (int x = 0; x < nx;)
-          {
-            if (row[x])
+          ForRunsOf(b + y * nx, static_cast<int>(nx), false,
+            [&](int begin, int end)
             {
-              ++x;
-              continue;
-            }
-            const int begin = x;
-            while (x < nx && !row[x])
-              ++x;
-            RowRun run;
-            run.begin = begin;
-            run.end = x;
-            run.row = y;
-            runs.push_back(run);
-          }
+              RowRun run;
+              run.begin = begin;
+              run.end = end;
+              run.row = y;
+              runs.push_back(run);
+            });
         }
         rowStart[ny] = runs.size();
         sets.Reset(runs.size());
@@ -293,20 +310,13 @@ std::vector<uint8_t> SegmentBody(const float* hu, const Eigen::Vector3i& dims, c
   std::vector<uint8_t> core(count);
   ForVoxels(count, [&](size_t i) { core[i] = !(hu[i] > threshold); });
   DilateSlices(core, dims, settings.openingRadius);
-  std::atomic<bool> anyCore{ false };
-  vtkSMPTools::For(size_t{ 0 }, count,
-    [&](size_t i0, size_t i1)
+  const long long cores = CountVoxels(count,
+    [&](size_t i)
     {
-      bool any = false;
-      for (size_t i = i0; i < i1; ++i)
-      {
-        core[i] = !core[i];
-        any |= core[i] != 0;
-      }
-      if (any)
-        anyCore = true;
+      core[i] = !core[i];
+      return core[i] != 0;
     });
-  if (!anyCore)
+  if (cores == 0)
   {
     throw InputError("body mask", "no part of the CT above " + std::to_string(settings.thresholdHU) +
         " HU is thicker than " + std::to_string(2 * settings.openingRadius + 1) + " voxels");
@@ -324,20 +334,14 @@ std::vector<uint8_t> SegmentBody(const float* hu, const Eigen::Vector3i& dims, c
 
 long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body)
 {
-  std::atomic<long long> changed{ 0 };
-  vtkSMPTools::For(size_t{ 0 }, body.size(),
-    [&](size_t i0, size_t i1)
+  return CountVoxels(body.size(),
+    [&](size_t i)
     {
-      long long here = 0;
-      for (size_t i = i0; i < i1; ++i)
-        if (!body[i] && hu[i] != -1000.0f)
-        {
-          hu[i] = -1000.0f;
-          ++here;
-        }
-      changed += here;
+      if (body[i] || hu[i] == -1000.0f)
+        return false;
+      hu[i] = -1000.0f;
+      return true;
     });
-  return changed;
 }
 
 vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings& settings, long long* removed, long long* table)
@@ -370,16 +374,7 @@ vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings&
   if (table)
   {
     const float denseHU = static_cast<float>(settings.tableHU);
-    std::atomic<long long> dense{ 0 };
-    vtkSMPTools::For(size_t{ 0 }, inBody.size(),
-      [&](size_t i0, size_t i1)
-      {
-        long long here = 0;
-        for (size_t i = i0; i < i1; ++i)
-          here += !inBody[i] && to[i] > denseHU;
-        dense += here;
-      });
-    *table = dense;
+    *table = CountVoxels(inBody.size(), [&](size_t i) { return !inBody[i] && to[i] > denseHU; });
   }
   const long long cleared = ClearOutsideBody(values->GetPointer(0), inBody);
   if (removed)
