@@ -4,8 +4,10 @@
 
 #include <nlopt.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 namespace xp
@@ -208,25 +210,63 @@ PoseOptimizerResult MaximizePose(
   return result;
 }
 
-Pose MoveToParabolaVertex(
-  const std::function<double(const Pose&)>& objective, const Pose& end, double atEnd, double stepMM, double stepDegrees)
+Pose MoveToParabolaVertex(const std::function<double(const Pose&)>& objective, const Pose& end, double atEnd, double stepMM,
+  double stepDegrees, AxisProbes* probes)
 {
+  AxisProbes found;
+  found.atCenter = atEnd;
+  found.stepMM = stepMM;
+  found.stepDegrees = stepDegrees;
   const std::array<double, 6> center = end.Parameters();
   std::array<double, 6> vertex = center;
   for (int a = 0; a < 6; ++a)
   {
-    const double h = a < 3 ? stepMM : stepDegrees;
+    const double h = found.Step(a);
     std::array<double, 6> p = center;
     p[a] = center[a] - h;
-    const double below = objective(Pose::FromParameters(p.data()));
+    found.below[a] = objective(Pose::FromParameters(p.data()));
     p[a] = center[a] + h;
-    const double above = objective(Pose::FromParameters(p.data()));
-    const double bend = 2.0 * atEnd - below - above;
-    const double offset = bend > 0.0 ? 0.5 * h * (above - below) / bend : 0.0;
+    found.above[a] = objective(Pose::FromParameters(p.data()));
+    const double offset = found.VertexOffset(a);
     if (std::abs(offset) <= h)
       vertex[a] += offset;
   }
+  if (probes)
+    *probes = found;
   return Pose::FromParameters(vertex.data());
+}
+
+VertexPolish PolishToVertex(const std::function<double(const Pose&)>& objective, const Pose& end, double atEnd,
+  double stepMM, double stepDegrees, int maxRounds, double stopMM, double stopDegrees)
+{
+  VertexPolish polish;
+  polish.pose = end;
+  polish.value = atEnd;
+  while (polish.rounds < maxRounds)
+  {
+    const Pose vertex = MoveToParabolaVertex(objective, polish.pose, polish.value, stepMM, stepDegrees, &polish.probes);
+    const bool settled = (vertex.translation - polish.pose.translation).cwiseAbs().maxCoeff() <= stopMM &&
+      std::max({ std::abs(vertex.pitch - polish.pose.pitch), std::abs(vertex.roll - polish.pose.roll),
+        std::abs(vertex.yaw - polish.pose.yaw) }) <= stopDegrees;
+    polish.pose = vertex;
+    polish.value = objective(vertex);
+    ++polish.rounds;
+    if (settled)
+      break;
+  }
+  return polish;
+}
+
+std::array<double, 6> UncertaintyFromProbes(const AxisProbes& probes, double atResult)
+{
+  std::array<double, 6> uncertainty{};
+  for (int a = 0; a < 6; ++a)
+  {
+    const double h = probes.Step(a), curvature = probes.Bend(a) / (h * h);
+    const bool peak = curvature > 0.0 && atResult >= probes.below[a] && atResult >= probes.above[a] && atResult > 0.0;
+    uncertainty[a] = peak ? std::sqrt(0.1 * atResult / curvature) : std::numeric_limits<double>::infinity();
+  }
+  return uncertainty;
 }
 
 } // namespace xp

@@ -12,6 +12,7 @@
 
 #include "xpPose.h"
 
+#include <array>
 #include <functional>
 #include <string>
 #include <vector>
@@ -89,15 +90,65 @@ VTKXPREGISTRATION_EXPORT ParameterSearchResult MaximizeParameters(
 VTKXPREGISTRATION_EXPORT PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings = {});
 
+/** The objective at a pose and a step either side of it along each pose parameter (x, y, z mm;
+ *  pitch, roll, yaw degrees): MoveToParabolaVertex's evaluations, which also give the peak's
+ *  curvature along each axis. */
+struct AxisProbes
+{
+  double atCenter = 0.0;
+  std::array<double, 6> below{}, above{}; ///< at -step and +step along each parameter
+  double stepMM = 0.0, stepDegrees = 0.0;
+
+  double Step(int parameter) const { return parameter < 3 ? this->stepMM : this->stepDegrees; }
+  /** 2 f0 - f- - f+ along `parameter`: positive where the three values bend down. */
+  double Bend(int parameter) const { return 2.0 * this->atCenter - this->below[parameter] - this->above[parameter]; }
+  /** The parabola's vertex along `parameter`, from the centre (0 without a downward bend). */
+  double VertexOffset(int parameter) const
+  {
+    const double bend = this->Bend(parameter);
+    return bend > 0.0 ? 0.5 * this->Step(parameter) * (this->above[parameter] - this->below[parameter]) / bend : 0.0;
+  }
+};
+
 /**
  * One step to the vertex of the objective's parabola along each parameter in turn, through its
  * values at `end` (`atEnd`) and `stepMM` (translations) or `stepDegrees` (rotations) either side:
- * 12 evaluations. A parameter whose three values do not bracket a maximum (no downward bend, or
- * the vertex farther than a step) keeps its value. On a quadratic peak with independent axes it
- * lands on the peak; on a cone (|x|) it at least halves the distance, never passing the peak.
+ * 12 evaluations (kept in `probes` when given). A parameter whose three values do not bracket a
+ * maximum (no downward bend, or the vertex farther than a step) keeps its value. On a quadratic
+ * peak with independent axes it lands on the peak; on a cone (|x|) it at least halves the
+ * distance, never passing the peak.
  */
-VTKXPREGISTRATION_EXPORT Pose MoveToParabolaVertex(
-  const std::function<double(const Pose&)>& objective, const Pose& end, double atEnd, double stepMM, double stepDegrees);
+VTKXPREGISTRATION_EXPORT Pose MoveToParabolaVertex(const std::function<double(const Pose&)>& objective, const Pose& end,
+  double atEnd, double stepMM, double stepDegrees, AxisProbes* probes = nullptr);
+
+/** A vertex polish's rounds (PolishToVertex). */
+struct VertexPolish
+{
+  Pose pose;           ///< the last round's vertex
+  double value = 0.0;  ///< the objective there
+  int rounds = 0;      ///< rounds run
+  AxisProbes probes;   ///< the last round's (about the pose it started from)
+};
+
+/**
+ * Rounds of MoveToParabolaVertex from `end` (objective `atEnd`), each followed by the objective
+ * at its vertex (13 evaluations a round), until a round moves no translation farther than
+ * `stopMM` and no angle farther than `stopDegrees`, or after `maxRounds`. Along a valley that
+ * couples two parameters each round lands nearer its peak; on a peak with independent axes the
+ * first round lands on it and the second settles.
+ */
+VTKXPREGISTRATION_EXPORT VertexPolish PolishToVertex(const std::function<double(const Pose&)>& objective, const Pose& end,
+  double atEnd, double stepMM, double stepDegrees, int maxRounds, double stopMM, double stopDegrees);
+
+/**
+ * The landscape's uncertainty per axis from a vertex polish's probes: the curvature c = bend / h^2
+ * of the parabola through the three values along each axis, and the distance over which a
+ * parabola of that curvature falls by 5 % of `atResult` (the objective at the result, the
+ * polished end): sqrt(0.1 atResult / c). Infinite where the three values do not bracket a
+ * maximum (no downward bend, or the vertex beyond a step: a neighbour scores higher than
+ * anything between them).
+ */
+VTKXPREGISTRATION_EXPORT std::array<double, 6> UncertaintyFromProbes(const AxisProbes& probes, double atResult);
 
 } // namespace xp
 

@@ -152,6 +152,11 @@ Json::Value ScheduleValue(const RegistrationSchedule& s)
     }
     if (stage.rounds > 0)
       item["rounds"] = stage.rounds;
+    if (stage.kind == StageKind::Polish)
+    {
+      item["stop_mm"] = stage.optimizer.toleranceMM;
+      item["stop_deg"] = stage.optimizer.toleranceDegrees;
+    }
     schedule.append(item);
   }
   return schedule;
@@ -383,6 +388,12 @@ void ReadSchedule(const Fields& f, RegistrationRecord& r)
     stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
     stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
     stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;
+    if (stage.kind == StageKind::Polish)
+    {
+      // Records written before the polish stopped on its moves ran every round: no stop.
+      stage.optimizer.toleranceMM = item["stop_mm"].isNumeric() ? item["stop_mm"].asDouble() : 0.0;
+      stage.optimizer.toleranceDegrees = item["stop_deg"].isNumeric() ? item["stop_deg"].asDouble() : 0.0;
+    }
     const Json::Value& o = item["optimizer"];
     if (o.isObject())
     {

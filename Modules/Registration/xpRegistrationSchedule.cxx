@@ -173,8 +173,12 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
   }
   else if (settings.vertexPolishRounds > 0)
   {
+    // Rounds until one moves no parameter farther than the refinement's own stop: on a noisy
+    // objective each round lands nearer a peak that is broad and bumpy at once.
     ScheduledStage polish = Stage(StageKind::Polish, "vertex polish", 1, 0.85, 0.9);
     polish.rounds = settings.vertexPolishRounds;
+    polish.optimizer.toleranceMM = refinement.optimizer.toleranceMM;
+    polish.optimizer.toleranceDegrees = refinement.optimizer.toleranceDegrees;
     stages.push_back(polish);
   }
   stages.push_back(Stage(StageKind::Landscape, "landscape", 1, 0.9, 0.95));
@@ -204,6 +208,11 @@ std::string DescribeSchedule(const RegistrationSchedule& schedule)
       text += ", the second end's stops at the first's";
     if (stage.rounds > 0)
       text += ", " + std::to_string(stage.rounds) + (stage.kind == StageKind::PreAlignment ? " iterations at most" : " rounds");
+    if (stage.kind == StageKind::Polish)
+    {
+      std::snprintf(line, sizeof line, " at most, until one moves under %g mm %g deg", o.toleranceMM, o.toleranceDegrees);
+      text += line;
+    }
     text += "\n";
   }
   return text;

@@ -373,7 +373,8 @@ Pose Moved(const Pose& center, int axis, double step)
  * Step 4a: the landscape around the result. Per axis, the refinement's objective at poses
  * `landscapeNear` either side gives its curvature c = (2 f0 - f+ - f-) / h^2, and the uncertainty
  * is the distance over which a parabola of that curvature falls by 5 % of f0: sqrt(0.1 f0 / c);
- * infinite where a neighbour scores higher (no maximum). Then a check the optimiser never saw:
+ * infinite where a neighbour scores higher (no maximum). After a vertex polish its probes give
+ * the curvature instead (UncertaintyFromProbes). Then a check the optimiser never saw:
  * `heldOut` (the ROI and the CT's coverage without the entropy mask, half size) at the result
  * and at poses `landscapeCheck` either side along each axis (same ranks and high-pass as the
  * refinement). The right anatomy peaks at the
@@ -1146,16 +1147,17 @@ private:
 
   /** Step 3c: the refinement's small simplex stops on the first bump of a noisy objective near
    *  where it started; the parabolas span the landscape's 3 mm and 2 degrees and read the peak's
-   *  shape. */
+   *  shape, round after round until one moves less than the refinement's stop (PolishToVertex). */
   PoseOptimizerResult Polish(const ScheduledStage& stage, PoseOptimizerResult end)
   {
     this->Trace.Begin(stage.name, stage.imageDivisor);
-    const auto objective = this->Traced(*this->Fine, &this->Result.evaluations);
-    for (int round = 0; round < stage.rounds; ++round)
-    {
-      end.pose = MoveToParabolaVertex(objective, end.pose, end.value, this->Settings.landscapeNearMM, this->Settings.landscapeNearDegrees);
-      end.value = objective(end.pose);
-    }
+    const VertexPolish polish = PolishToVertex(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value,
+      this->Settings.landscapeNearMM, this->Settings.landscapeNearDegrees, stage.rounds, stage.optimizer.toleranceMM,
+      stage.optimizer.toleranceDegrees);
+    end.pose = polish.pose;
+    end.value = polish.value;
+    if (polish.rounds > 0)
+      this->PolishProbes = polish.probes; // the landscape reads the peak's curvature from them
     this->Trace.End();
     return end;
   }
@@ -1210,7 +1212,11 @@ private:
     const int heldOutDivisor = this->Pyramid ? 2 : 1;
     const std::unique_ptr<StereoSimilarity> heldOut = this->Similarity(this->VolumeFor(heldOutDivisor),
       Shrunk(wholeViews, heldOutDivisor), { settings.equalizedLevels, settings.heldOutHighPassMM, this->CorrelationMM });
-    this->Result.uncertainty = MeasureUncertainty(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value, settings);
+    // The polish's probes, a step either side of where it started, are the landscape's own
+    // (landscapeNear): their curvature is read, not measured again around the polished end.
+    this->Result.uncertainty = this->PolishProbes
+      ? UncertaintyFromProbes(*this->PolishProbes, end.value)
+      : MeasureUncertainty(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value, settings);
     this->Trace.Begin("held-out check", heldOutDivisor);
     const PeakLeads leads = MeasurePeakLeads(this->Traced(*heldOut, &this->Result.evaluations), end.pose, settings);
     this->Result.peakMargin = leads.margin;
@@ -1226,8 +1232,9 @@ private:
     this->Result.edgeDistanceMM = edges.mm;
     this->Result.edgeDistanceShiftedMM = edges.shiftedMM;
     this->Result.drrCount += atFullSize->RenderedDRRs();
-    // The refinement's objective and DRRs at the result: what the gate reads.
-    this->Result.objective = this->Traced(*this->Fine, &this->Result.evaluations)(end.pose);
+    // The refinement's objective and DRRs at the result: what the gate reads. After the polish
+    // its last evaluation was the result's, and no other pose has been evaluated on it since.
+    this->Result.objective = this->PolishProbes ? end.value : this->Traced(*this->Fine, &this->Result.evaluations)(end.pose);
     this->Trace.End();
   }
 
@@ -1303,6 +1310,8 @@ private:
   std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
   std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
   std::map<int, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor
+  /** The vertex polish's last round's evaluations, where it ran: the landscape's curvature. */
+  std::optional<AxisProbes> PolishProbes;
   size_t NextStage = 0; ///< the first stage of the schedule not yet run
 };
 

@@ -99,12 +99,14 @@ struct StereoRegistrationSettings
    *  default: quarter-size travel, looser stops, one restart) or the standard one it replaced
    *  (Algorithms.md, "The schedule"). */
   ScheduleChoice schedule = ScheduleChoice::Economy;
-  /** Rounds of moving the refinement's end to the vertex of the objective's parabola along each
-   *  axis, through its values landscapeNear either side (MoveToParabolaVertex: 12 evaluations
-   *  and one more a round); 0: the refinement's end as it is. The refinement's small simplex
-   *  stops on a bump of the noisy objective near its start; one round made no cell of the
-   *  generalisation matrix worse (Algorithms.md, "Registration", 3). Not for a bone-only volume
-   *  (its restarts judge the end). */
+  /** Rounds at most of moving the refinement's end to the vertex of the objective's parabola
+   *  along each axis, through its values landscapeNear either side (MoveToParabolaVertex: 12
+   *  evaluations and one more a round; the landscape reads the last round's), until a round moves
+   *  less than the refinement's stop (PolishToVertex); 0: the refinement's end as it is. The
+   *  refinement's small simplex stops on a bump of the noisy objective near its start; one round
+   *  made no cell of the generalisation matrix worse; up to 6 brought noisy pelvis results nearer
+   *  but turned as many verdicts at the gate's limits as it mended (Algorithms.md, "Registration",
+   *  3). Not for a bone-only volume (its restarts judge the end). */
   int vertexPolishRounds = 1;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
@@ -165,10 +167,11 @@ struct StereoRegistrationSettings
    *  better one's objective: two optima the images cannot tell apart. On the pelvis a stall on
    *  the roll/lateral valley ends a few percent lower (Algorithms.md). */
   double ambiguousObjectiveRatio = 0.99;
-  /** The landscape around the result (MeasureLandscape in the .cxx): the refinement's objective
-   *  `landscapeNear...` either side of the result along each axis gives the uncertainty; a
-   *  held-out similarity (the ROI, the CT's coverage and its shadow without the entropy mask, half size) `landscapeCheck...` either side must
-   *  score below the result. */
+  /** The landscape around the result (MeasureUncertainty and UncertaintyFromProbes in the
+   *  .cxx): the refinement's objective `landscapeNear...` either side along each axis gives the
+   *  uncertainty (the vertex polish's own evaluations there, where it ran; about the result
+   *  otherwise); a held-out similarity (the ROI, the CT's coverage and its shadow without the
+   *  entropy mask, half size) `landscapeCheck...` either side must score below the result. */
   double landscapeNearMM = 1.5, landscapeNearDegrees = 1.0;
   double landscapeCheckMM = 3.0, landscapeCheckDegrees = 1.5;
   /** The held-out similarity keeps only the CT's shadow at the result, widened by this (mm on the

@@ -144,6 +144,12 @@ TEST(RegistrationRecord, RoundTripsEveryField)
       EXPECT_DOUBLE_EQ(a.optimizer.initialStepDegrees, b.optimizer.initialStepDegrees) << b.name;
       EXPECT_EQ(a.optimizer.maxEvaluations, b.optimizer.maxEvaluations) << b.name;
     }
+    if (b.kind == xp::StageKind::Polish)
+    {
+      EXPECT_GT(b.optimizer.toleranceMM, 0.0) << "the polish stops on its moves";
+      EXPECT_DOUBLE_EQ(a.optimizer.toleranceMM, b.optimizer.toleranceMM) << b.name;
+      EXPECT_DOUBLE_EQ(a.optimizer.toleranceDegrees, b.optimizer.toleranceDegrees) << b.name;
+    }
   }
   EXPECT_EQ(read.objectiveTrace, written.objectiveTrace);
   ASSERT_TRUE(read.inputs.has_value());
