@@ -612,6 +612,57 @@ TEST(PreAlignment, TheHalvesOfAStretchedImageRegisterApartThroughTheMasksBlanks)
   EXPECT_THROW(xp::StretchedHalvesApart(drr, drr, std::vector<uint8_t>(10, 1), 160, 120, 32, 3.0), xp::InputError);
 }
 
+TEST(PreAlignment, TheWarpFourPixelsAtATimeIsBitForBitTheWarpOneAtATime)
+{
+  // Random 12-bit pixels, every pixel of a 37 x 23 image and a scattered subset (odd counts, so
+  // both the vectorised loop and its tail run), under motions whose sources fall inside, across
+  // the borders, exactly on whole pixels and nowhere (NaN): the same values and validity.
+  const int columns = 37, rows = 23;
+  std::mt19937 random(7);
+  std::uniform_int_distribution<int> grey(0, 4095);
+  std::vector<uint16_t> moving(columns * rows);
+  for (uint16_t& value : moving)
+    value = static_cast<uint16_t>(grey(random));
+  std::vector<xp::PixelIndex> every, some;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+    {
+      every.push_back({ c, r });
+      if ((r * columns + c) % 3 == 1)
+        some.push_back({ c, r });
+    }
+  std::vector<xp::Motion2D> motions(5);
+  motions[1].shift = { 2.37, -1.6 };
+  motions[1].rotation = 7.5;
+  motions[1].center = { 18.0, 11.0 };
+  motions[2].shift = { -30.0, 0.25 };
+  motions[2].scale = { 1.07, 0.93 };
+  motions[3].shift = { 1.0, -2.0 }; // whole pixels: fx = fy = 0, and the last column and row outside
+  motions[4].shift = { std::nan(""), 0.0 };
+  for (const xp::Motion2D& motion : motions)
+    for (const std::vector<xp::PixelIndex>* pixels : { &every, &some })
+    {
+      std::vector<uint16_t> one, four;
+      std::vector<uint8_t> oneValid, fourValid;
+      xp::WarpPixels(moving, columns, rows, motion, *pixels, one, oneValid, false);
+      xp::WarpPixels(moving, columns, rows, motion, *pixels, four, fourValid, true);
+      EXPECT_EQ(one, four);
+      EXPECT_EQ(oneValid, fourValid);
+    }
+  // The identity keeps every pixel but the last column and row (their neighbour lies outside).
+  std::vector<uint16_t> out;
+  std::vector<uint8_t> valid;
+  xp::WarpPixels(moving, columns, rows, motions[0], every, out, valid);
+  EXPECT_EQ(std::count(valid.begin(), valid.end(), 1), (columns - 1) * (rows - 1));
+  EXPECT_EQ(out[5 * columns + 9], moving[5 * columns + 9]);
+  // Half a pixel to the right: the mean of two neighbours, rounded half up.
+  xp::Motion2D half;
+  half.shift = { -0.5, 0.0 };
+  xp::WarpPixels(moving, columns, rows, half, every, out, valid);
+  EXPECT_EQ(out[5 * columns + 9], (moving[5 * columns + 9] + moving[5 * columns + 10] + 1) / 2);
+  EXPECT_THROW(xp::WarpPixels(std::vector<uint16_t>(10), columns, rows, half, every, out, valid), xp::InputError);
+}
+
 TEST(PreAlignment, BringsALargeMisalignmentIntoTheFineRange)
 {
   Scene scene;
