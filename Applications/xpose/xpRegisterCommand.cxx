@@ -81,8 +81,8 @@ Pose FoundStart(const RegistrationSession& session)
 void PrintStages(const StereoRegistrationResult& result, const std::vector<RegistrationView>& views)
 {
   if (result.table && result.table->tableCM3 > 0.0)
-    std::printf("table: %.0f cm3 outside the body; pre-aligned, the X-rays' edges match the CT %s (high-passed objective "
-                "%.4f) better than %s (%.4f): registered %s\n",
+    std::printf("table: %.0f cm3 outside the body; where the body alone pre-aligned, the X-rays' edges match the CT %s "
+                "(high-passed objective %.4f) better than %s (%.4f): registered %s\n",
       result.table->tableCM3, result.table->keptTable ? "with it" : "without it",
       result.table->keptTable ? result.table->withTable : result.table->bodyOnly,
       result.table->keptTable ? "the body alone" : "with it", result.table->keptTable ? result.table->bodyOnly : result.table->withTable,

@@ -374,24 +374,35 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
     }
     else
     {
-      // Each CT pre-aligned on its own, then compared on the views' edges there (the refinement's
-      // high-passed objective): the one whose DRRs match the X-rays better is registered
-      // (xp::TableChoice); a tie keeps the body alone, which is what a room shows.
+      // The CT without its table pre-aligned, then both CTs compared near there on the views'
+      // edges (the refinement's high-passed objective): the one whose DRRs match the X-rays better
+      // is registered (xp::TableChoice); a tie keeps the body alone, which is what a room shows.
+      // The CT with its table is compared where two rounds of the pre-alignment take it from there
+      // (a table the X-rays show pulls the body alone's a little off; one they do not show pulls
+      // the CT with it away), and is pre-aligned in full only when kept.
       xp::TableChoice choice;
       // A bone cut out of a CT has no table; its registration matches the bone's shadow alone.
       const bool bone = this->Settings.detectBoneOnly && xp::OuterSurfaceIsBone(volume);
       const xp::AttenuationVolume* body = bone ? nullptr : this->BodyAttenuation(ct);
       choice.tableCM3 = body ? this->TableCM3 : 0.0;
-      xp::StereoRegistrationInStages withTable(volume, planned, this->Geometry.isocenter, views, this->Settings, observer);
-      choice.withTable = withTable.PreAlign().highPassedObjective;
       std::optional<xp::StereoRegistrationInStages> bodyOnly;
       if (body)
       {
         bodyOnly.emplace(*body, planned, this->Geometry.isocenter, views, this->Settings, observer);
-        choice.bodyOnly = bodyOnly->PreAlign().highPassedObjective;
+        const xp::PreAlignedCT aligned = bodyOnly->PreAlign();
+        choice.bodyOnly = aligned.highPassedObjective;
+        choice.withTable = bodyOnly->HighPassedObjectiveOf(volume, aligned.prealignment.pose, 2);
         choice.keptTable = choice.withTable > choice.bodyOnly;
       }
-      xp::StereoRegistrationResult result = choice.keptTable ? withTable.Finish() : bodyOnly->Finish();
+      xp::StereoRegistrationResult result;
+      if (choice.keptTable)
+      {
+        xp::StereoRegistrationInStages withTable(volume, planned, this->Geometry.isocenter, views, this->Settings, observer);
+        withTable.PreAlign();
+        result = withTable.Finish();
+      }
+      else
+        result = bodyOnly->Finish();
       result.table = choice;
       this->SetResult(std::move(result));
     }

@@ -287,7 +287,9 @@ private:
       this->Observer({ stage.empty() ? this->Stage : stage, this->Evaluations, objective, fraction });
   }
 
-  const RegistrationObserver& Observer;
+  /** A copy: a registration in stages (StereoRegistrationInStages) outlives the call that gave
+   *  it, and a default observer is a temporary. */
+  const RegistrationObserver Observer;
   std::string Stage;
   double From = 0.0, To = 0.0;
   int Evaluations = 0;
@@ -887,13 +889,35 @@ public:
     return aligned;
   }
 
+  /** After RunStages(StageKind::PreAlignment): HighPassedObjectiveAt for another CT of the
+   *  patient where `rounds` of the pre-alignment take it from `aboutRoomIsocenter` (a pose about
+   *  the room's isocentre; 0 rounds: there), on this registration's X-rays as its pre-alignment
+   *  prepared them. Its renderings count to no stage of this registration. */
+  double HighPassedObjectiveOf(const AttenuationVolume& other, const Pose& aboutRoomIsocenter, int rounds)
+  {
+    const Pose start = Pose::FromTransform(aboutRoomIsocenter.ToTransform(this->RoomIsocenter), this->Isocenter);
+    const auto stage = std::find_if(this->Result.schedule.stages.begin(), this->Result.schedule.stages.end(),
+      [](const ScheduledStage& s) { return s.kind == StageKind::PreAlignment; });
+    if (rounds <= 0 || stage == this->Result.schedule.stages.end())
+      return this->HighPassedObjectiveAt(start, &other);
+    // The pre-alignment's own similarity, of the other CT (halved as this one was).
+    std::unique_ptr<AttenuationVolume> halved;
+    if (stage->imageDivisor > 1 && this->HalfVolume)
+      halved = std::make_unique<AttenuationVolume>(other.Halved(HalvingFactors(other, this->Settings.maxHalvedVoxelMM)));
+    const std::unique_ptr<StereoSimilarity> similarity = this->Similarity(halved ? *halved : other,
+      Shrunk(this->Working.ranked, stage->imageDivisor), { this->Settings.equalizedLevels, 0.0 }, false);
+    const PreAlignmentResult refined = xp::PreAlign(*similarity, start, this->Isocenter, rounds);
+    return this->HighPassedObjectiveAt(refined.pose, &other);
+  }
+
 private:
   /** After the pre-alignment: the refinement's objective (its high-pass, full size, the X-rays'
-   *  ROIs only) at `pose`: what the views' edges say, without the shading. */
-  double HighPassedObjectiveAt(const Pose& pose)
+   *  ROIs only) at `pose`, of this registration's CT or `other`: what the views' edges say,
+   *  without the shading. */
+  double HighPassedObjectiveAt(const Pose& pose, const AttenuationVolume* other = nullptr)
   {
-    const std::unique_ptr<StereoSimilarity> similarity = this->Similarity(
-      this->Volume, this->Working.ranked, { this->Settings.equalizedLevels, this->Settings.fineHighPassMM, this->CorrelationMM });
+    const std::unique_ptr<StereoSimilarity> similarity = this->Similarity(other ? *other : this->Volume, this->Working.ranked,
+      { this->Settings.equalizedLevels, this->Settings.fineHighPassMM, this->CorrelationMM }, other == nullptr);
     return similarity->Evaluate(pose);
   }
 
@@ -916,14 +940,16 @@ private:
       views = AtCoarseSize(views, true);
     return views;
   }
-  /** A similarity of this registration, its rays cast where the settings say and its cost counted. */
+  /** A similarity of this registration, its rays cast where the settings say and its cost
+   *  counted (unless `counted` is false: another CT's, for a comparison). */
   std::unique_ptr<StereoSimilarity> Similarity(
-    const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const SimilarityLevels& levels)
+    const AttenuationVolume& volume, const std::vector<RegistrationView>& views, const SimilarityLevels& levels, bool counted = true)
   {
     auto similarity = std::make_unique<StereoSimilarity>(
       volume, this->PlannedCTToRoom, this->Isocenter, views, this->Settings.bins, levels);
     similarity->SetDevice(this->Settings.device);
-    similarity->SetCostSink(&this->Cost);
+    if (counted)
+      similarity->SetCostSink(&this->Cost);
     return similarity;
   }
   /** Every evaluation of a 6-DOF stage: traced, heard, and counted into `evaluations` when set. */
@@ -1364,6 +1390,11 @@ PreAlignedCT StereoRegistrationInStages::PreAlign()
 {
   this->Stages->RunStages(StageKind::PreAlignment);
   return this->Stages->PreAligned();
+}
+
+double StereoRegistrationInStages::HighPassedObjectiveOf(const AttenuationVolume& other, const Pose& pose, int rounds)
+{
+  return this->Stages->HighPassedObjectiveOf(other, pose, rounds);
 }
 
 StereoRegistrationResult StereoRegistrationInStages::Finish()

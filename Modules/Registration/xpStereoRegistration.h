@@ -28,7 +28,8 @@ namespace xp
 struct StereoRegistrationSettings
 {
   /** Register the CT with its table or its body alone, whichever the X-rays' edges match better
-   *  at each one's pre-alignment (TableChoice; vtkXPStereoRegistrationFilter). false: the CT as given. */
+   *  near where the body alone pre-aligned (TableChoice; vtkXPStereoRegistrationFilter). false:
+   *  the CT as given. */
   bool chooseTable = false;
   bool entropyMask = true;       ///< exclude low-information regions (Method.md, stage 2)
   bool pyramid = true;           ///< half resolution first, when the images are at least 256x192
@@ -217,7 +218,9 @@ struct RegistrationStage
 struct TableChoice
 {
   double tableCM3 = 0.0; ///< the CT outside the body above BodyMaskSettings::tableHU (0: no table, nothing chosen)
-  /** Each CT's high-passed objective at its own pre-alignment (PreAlignedCT; when a table was found). */
+  /** Each CT's high-passed objective (PreAlignedCT; when a table was found): the body alone's at
+   *  its pre-alignment; the CT with its table's where two rounds of the pre-alignment take it
+   *  from there (StereoRegistrationInStages::HighPassedObjectiveOf). */
   double withTable = 0.0, bodyOnly = 0.0;
   bool keptTable = true; ///< the DRRs were rendered from the CT with its table
 };
@@ -339,8 +342,9 @@ struct PreAlignedCT
 
 /**
  * RegisterStereo in two steps: PreAlign() runs the schedule's first stage, Finish() the rest
- * and gives the result RegisterStereo would. Two CTs of one patient (with and without its
- * table) are pre-aligned, and the better one finished. Throws as RegisterStereo does.
+ * and gives the result RegisterStereo would. Between them, HighPassedObjectiveOf compares another
+ * CT of the patient (the same with its table) at the pre-aligned pose, and the better one is
+ * finished. Throws as RegisterStereo does.
  */
 class VTKXPREGISTRATION_EXPORT StereoRegistrationInStages
 {
@@ -350,6 +354,11 @@ public:
     const RegistrationObserver& observer = {});
   ~StereoRegistrationInStages();
   PreAlignedCT PreAlign();           ///< once, first
+  /** After PreAlign: PreAlignedCT::highPassedObjective of `other`, another CT of the patient (the
+   *  same one with its table, say), on this registration's X-rays as its pre-alignment prepared
+   *  them, where `rounds` of the pre-alignment take `other` from `pose` (about the room's
+   *  isocentre; 0: at `pose`). Counts no evaluation or rendering of this registration. */
+  double HighPassedObjectiveOf(const AttenuationVolume& other, const Pose& pose, int rounds);
   StereoRegistrationResult Finish(); ///< once, after PreAlign
 private:
   class Run;

@@ -1720,6 +1720,37 @@ TEST(StereoRegistrationOnGPU, FindsTheCPUsPose)
 } // namespace
 
 
+// StereoRegistrationInStages: another CT compared after the pre-alignment leaves the registration
+// as RegisterStereo makes it (the same pose, evaluations and DRRs: its renderings count to none
+// of its stages); this CT itself at its pre-aligned pose gives PreAlignedCT's objective (the
+// pose's frame), two more rounds of the pre-alignment stay near it, and from 4 mm off come back.
+TEST(StereoRegistrationInStages, ComparingAnotherCTLeavesTheRegistrationAsItWas)
+{
+  const Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("2,-1.5,1,0.5,-0.5,1", "truth");
+  const std::vector<xp::RegistrationView> views = Simulate(scene, truth, 11);
+  const Eigen::Vector3d isocenter(5.0, -3.0, 2.0); // off the volume's centre: a frame mixed up moves the pose
+  const xp::StereoRegistrationResult whole = xp::RegisterStereo(scene.volume, scene.planned, isocenter, views);
+  xp::StereoRegistrationInStages stages(scene.volume, scene.planned, isocenter, views);
+  const xp::PreAlignedCT aligned = stages.PreAlign();
+  EXPECT_DOUBLE_EQ(stages.HighPassedObjectiveOf(scene.volume, aligned.prealignment.pose, 0), aligned.highPassedObjective);
+  EXPECT_NEAR(stages.HighPassedObjectiveOf(scene.volume, aligned.prealignment.pose, 2), aligned.highPassedObjective,
+    0.05 * aligned.highPassedObjective) << "two more rounds from the pre-alignment stay near it";
+  xp::Pose away = aligned.prealignment.pose;
+  away.translation.z() += 4.0;
+  const double awayValue = stages.HighPassedObjectiveOf(scene.volume, away, 0);
+  EXPECT_LT(awayValue, aligned.highPassedObjective) << "4 mm off the pre-alignment";
+  const double cameBack = stages.HighPassedObjectiveOf(scene.volume, away, 2);
+  std::printf("high-passed objective: %.4f at the pre-alignment, %.4f 4 mm off it, %.4f after two rounds from there\n",
+    aligned.highPassedObjective, awayValue, cameBack);
+  EXPECT_GT(cameBack, awayValue) << "two rounds of the pre-alignment come back";
+  const xp::StereoRegistrationResult finished = stages.Finish();
+  EXPECT_EQ(finished.misalignment.ToString(), whole.misalignment.ToString());
+  EXPECT_EQ(finished.evaluations, whole.evaluations);
+  EXPECT_EQ(finished.drrCount, whole.drrCount);
+  EXPECT_EQ(finished.ok, whole.ok);
+}
+
 // The phantom's CT holds a head rest and a couch top; X-rays that show them (a renderer of that
 // CT) or not (a room): with chooseTable the registration renders the CT the X-rays show, and
 // says why. Fails if the choice ignores the X-rays, or if the table found or the objectives go
