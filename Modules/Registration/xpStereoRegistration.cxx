@@ -390,16 +390,16 @@ Pose Moved(const Pose& center, int axis, double step)
 std::array<double, 6> MeasureUncertainty(
   const std::function<double(const Pose&)>& objective, const Pose& result, double atResult, const StereoRegistrationSettings& settings)
 {
-  std::array<double, 6> uncertainty{};
+  AxisProbes probes;
+  probes.atCenter = atResult;
+  probes.stepMM = settings.landscapeNearMM;
+  probes.stepDegrees = settings.landscapeNearDegrees;
   for (int a = 0; a < 6; ++a)
   {
-    const double h = a < 3 ? settings.landscapeNearMM : settings.landscapeNearDegrees;
-    const double below = objective(Moved(result, a, -h)), above = objective(Moved(result, a, h));
-    const double curvature = (2.0 * atResult - below - above) / (h * h);
-    const bool peak = atResult >= below && atResult >= above && curvature > 0.0 && atResult > 0.0;
-    uncertainty[a] = peak ? std::sqrt(0.1 * atResult / curvature) : std::numeric_limits<double>::infinity();
+    probes.below[a] = objective(Moved(result, a, -probes.Step(a)));
+    probes.above[a] = objective(Moved(result, a, probes.Step(a)));
   }
-  return uncertainty;
+  return UncertaintyFromProbes(probes, atResult);
 }
 
 /** Step 4a, second half: the result's leads over its neighbours on the held-out similarity. */
