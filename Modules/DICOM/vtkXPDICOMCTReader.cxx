@@ -2,7 +2,7 @@
 
 #include "xpDICOMSeries.h"
 #include "xpError.h"
-#include "xpHugePages.h"
+#include "xpPageMemory.h"
 
 #include <vtkFloatArray.h>
 #include <vtkShortArray.h>
@@ -74,16 +74,16 @@ int vtkXPDICOMCTReader::RequestData(vtkInformation*, vtkInformationVector**, vtk
   vtkSmartPointer<vtkDataArray> scalars;
   try
   {
-    // Filled once, then read out of order by ray casting: on huge pages.
+    // Filled once by the threads that decode it, then read out of order (xpPageMemory.h).
     if (info.wholeHU16)
     {
-      vtkSmartPointer<vtkShortArray> values = xp::NewHugePageShortArray(count);
+      vtkSmartPointer<vtkShortArray> values = xp::NewPageShortArray(count);
       xp::ReadCTSeriesVoxels(info, values->GetPointer(0));
       scalars = values;
     }
     else
     {
-      vtkSmartPointer<vtkFloatArray> values = xp::NewHugePageFloatArray(count);
+      vtkSmartPointer<vtkFloatArray> values = xp::NewPageFloatArray(count);
       xp::ReadCTSeriesVoxels(info, values->GetPointer(0));
       scalars = values;
     }

@@ -150,7 +150,7 @@ int vtkXPDRRFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** 
   return 1;
 }
 
-std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* ct, double muWater)
+std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* ct, double muWater, const uint8_t* keep)
 {
   vtkDataArray* scalars = ct ? ct->GetPointData()->GetScalars() : nullptr;
   if (!scalars || scalars->GetNumberOfComponents() != 1)
@@ -164,7 +164,7 @@ std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* c
   if (scalars->GetDataType() == VTK_SHORT)
   {
     return std::make_unique<xp::AttenuationVolume>(
-      static_cast<const int16_t*>(scalars->GetVoidPointer(0)), size, xp::IndexToPhysical(ct), muWater);
+      static_cast<const int16_t*>(scalars->GetVoidPointer(0)), keep, size, xp::IndexToPhysical(ct), muWater);
   }
   std::vector<float> hu;
   const float* values = nullptr;
@@ -181,7 +181,7 @@ std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* c
     }
     values = hu.data();
   }
-  return std::make_unique<xp::AttenuationVolume>(values, size, xp::IndexToPhysical(ct), muWater);
+  return std::make_unique<xp::AttenuationVolume>(values, keep, size, xp::IndexToPhysical(ct), muWater);
 }
 
 const xp::AttenuationVolume& vtkXPDRRFilter::Attenuation(vtkImageData* ct)

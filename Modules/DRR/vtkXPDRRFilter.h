@@ -30,9 +30,11 @@ namespace xp
 {
 /**
  * The attenuation volume of a CT image (HU, any scalar type), with its index-to-LPS mapping from
- * the image's origin, spacing, DirectionMatrix and extent. Throws xp::InputError on bad input.
+ * the image's origin, spacing, DirectionMatrix and extent; where `keep` is given (one flag per
+ * voxel), its 0 voxels are air. Throws xp::InputError on bad input.
  */
-VTKXPDRR_EXPORT std::unique_ptr<AttenuationVolume> MakeAttenuationVolume(vtkImageData* ct, double muWater);
+VTKXPDRR_EXPORT std::unique_ptr<AttenuationVolume> MakeAttenuationVolume(
+  vtkImageData* ct, double muWater, const uint8_t* keep = nullptr);
 }
 
 class VTKXPDRR_EXPORT vtkXPDRRFilter : public vtkImageAlgorithm

@@ -2,8 +2,7 @@
 
 #include "xpError.h"
 #include "xpParallel.h"
-#include "xpHugePages.h"
-
+#include "xpPageMemory.h"
 
 #include <algorithm>
 #include <cstdlib>
@@ -17,11 +16,11 @@ namespace xp
 namespace
 {
 
-/** Zeroed voxels on huge pages: a ray touches voxels far apart in memory, and 4 KiB pages would
- *  cost a TLB miss on most samples. Pages are first touched by the threads that fill them. */
+/** Zeroed voxels mapped from the kernel (xpPageMemory.h): pages are first touched by the threads
+ *  that fill them, and a freed volume goes back at once. */
 std::shared_ptr<uint16_t> AllocateVoxels(size_t count)
 {
-  return std::shared_ptr<uint16_t>(static_cast<uint16_t*>(AllocateHugePages(count * sizeof(uint16_t))), &FreeHugePages);
+  return std::shared_ptr<uint16_t>(static_cast<uint16_t*>(AllocatePages(count * sizeof(uint16_t))), &FreePages);
 }
 
 /** Where a CT's non-air voxels are, and the largest HU among them. */
@@ -44,10 +43,17 @@ struct NonAirBox
   }
 };
 
+/** HU of voxel `i` as a float; -1000 (air) where `keep` is given and 0. */
+template <typename HU>
+float KeptHU(const HU* hounsfield, const uint8_t* keep, size_t i)
+{
+  return keep && !keep[i] ? -1000.0f : static_cast<float>(hounsfield[i]);
+}
+
 /** One pass over the CT, slices in parallel; within a row only the stretch between its first and
  *  last non-air voxel is searched for the highest value. */
 template <typename HU>
-NonAirBox FindNonAirBox(const HU* hounsfield, const Eigen::Vector3i& dims, float air)
+NonAirBox FindNonAirBox(const HU* hounsfield, const uint8_t* keep, const Eigen::Vector3i& dims, float air)
 {
   // Non-air: at or above the threshold and of positive mu (above -1000 HU).
   const float lowest = std::max(air, std::nextafter(-1000.0f, 0.0f));
@@ -60,17 +66,17 @@ NonAirBox FindNonAirBox(const HU* hounsfield, const Eigen::Vector3i& dims, float
         NonAirBox& box = slices[k];
         for (int j = 0; j < dims[1]; ++j)
         {
-          const HU* row = hounsfield + (static_cast<size_t>(k) * dims[1] + j) * dims[0];
+          const size_t row = (static_cast<size_t>(k) * dims[1] + j) * dims[0];
           int first = 0, last = dims[0] - 1;
-          while (first <= last && static_cast<float>(row[first]) < lowest)
+          while (first <= last && KeptHU(hounsfield, keep, row + first) < lowest)
             ++first;
           if (first > last)
             continue;
-          while (static_cast<float>(row[last]) < lowest)
+          while (KeptHU(hounsfield, keep, row + last) < lowest)
             --last;
           float highest = box.highest;
           for (int i = first; i <= last; ++i)
-            highest = std::max(highest, static_cast<float>(row[i]));
+            highest = std::max(highest, KeptHU(hounsfield, keep, row + i));
           box.highest = highest;
           box.low = box.low.cwiseMin(Eigen::Vector3i(first, j, k));
           box.high = box.high.cwiseMax(Eigen::Vector3i(last, j, k));
@@ -88,6 +94,13 @@ NonAirBox FindNonAirBox(const HU* hounsfield, const Eigen::Vector3i& dims, float
 template <typename HU>
 AttenuationVolume::AttenuationVolume(
   const HU* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT, double muWater, double airThreshold)
+  : AttenuationVolume(hounsfield, nullptr, dims, indexToCT, muWater, airThreshold)
+{
+}
+
+template <typename HU>
+AttenuationVolume::AttenuationVolume(const HU* hounsfield, const uint8_t* keep, const Eigen::Vector3i& dims,
+  const Eigen::Affine3d& indexToCT, double muWater, double airThreshold)
   : Dims(dims)
   , CTIndexToCT(indexToCT)
   , Water(muWater)
@@ -105,23 +118,27 @@ AttenuationVolume::AttenuationVolume(
     throw InputError("mu_water", "must be positive");
   }
   const float air = static_cast<float>(airThreshold);
-  NonAirBox box = FindNonAirBox(hounsfield, dims, air);
+  NonAirBox box = FindNonAirBox(hounsfield, keep, dims, air);
   if (box.Empty())
   {
     box.low = box.high = Eigen::Vector3i::Zero(); // one voxel of air keeps the layout valid
   }
   this->Origin = box.low;
-  this->Store(hounsfield, dims, box.low, box.high - box.low + Eigen::Vector3i::Ones(), box.highest, air);
+  this->Store(hounsfield, keep, dims, box.low, box.high - box.low + Eigen::Vector3i::Ones(), box.highest, air);
 }
 
 template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
   const float*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
 template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
   const int16_t*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
+template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
+  const float*, const uint8_t*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
+template VTKXPDRR_EXPORT AttenuationVolume::AttenuationVolume(
+  const int16_t*, const uint8_t*, const Eigen::Vector3i&, const Eigen::Affine3d&, double, double);
 
 template <typename HU>
-void AttenuationVolume::Store(const HU* hounsfield, const Eigen::Vector3i& arrayDims, const Eigen::Vector3i& low,
-  const Eigen::Vector3i& size, float highest, float air)
+void AttenuationVolume::Store(const HU* hounsfield, const uint8_t* keep, const Eigen::Vector3i& arrayDims,
+  const Eigen::Vector3i& low, const Eigen::Vector3i& size, float highest, float air)
 {
   this->Padded = size + Eigen::Vector3i::Constant(2);
   this->PaddedToCT = this->CTIndexToCT * Eigen::Translation3d((this->Origin - Eigen::Vector3i::Ones()).cast<double>());
@@ -141,11 +158,11 @@ void AttenuationVolume::Store(const HU* hounsfield, const Eigen::Vector3i& array
       {
         for (int j = 0; j < size[1]; ++j)
         {
-          const HU* in = hounsfield + (static_cast<size_t>(low[2] + k) * arrayDims[1] + low[1] + j) * arrayDims[0] + low[0];
+          const size_t in = (static_cast<size_t>(low[2] + k) * arrayDims[1] + low[1] + j) * arrayDims[0] + low[0];
           uint16_t* out = this->Mu.get() + (k + 1) * nxy + (j + 1) * nx + 1;
           for (int i = 0; i < size[0]; ++i)
           {
-            const float hu = static_cast<float>(in[i]);
+            const float hu = KeptHU(hounsfield, keep, in + i);
             const float steps = hu < air ? 0.0f : std::min(65535.0f, scale * std::max(0.0f, hu + 1000.0f));
             out[i] = static_cast<uint16_t>(steps + 0.5f);
           }
@@ -238,7 +255,7 @@ AttenuationVolume AttenuationVolume::Halved(const Eigen::Vector3i& factors) cons
   for (const float h : hounsfield)
     highest = std::max(highest, h);
   // Air stays air: a mean of 0 maps to -1000 HU, below every threshold; partial air is kept.
-  half.Store(hounsfield.data(), size, Eigen::Vector3i::Zero(), size, highest, -1000.0f + 1e-3f);
+  half.Store(hounsfield.data(), nullptr, size, Eigen::Vector3i::Zero(), size, highest, -1000.0f + 1e-3f);
   return half;
 }
 

@@ -50,6 +50,12 @@ public:
   AttenuationVolume(const HU* hounsfield, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
     double muWater, double airThreshold = DefaultAirThreshold);
 
+  /** The same, with the voxels where `keep` is 0 taken as air (-1000 HU): a CT's body alone
+   *  (xp::BodyOf) without a copy of the CT. `keep` holds one flag per voxel, x fastest. */
+  template <typename HU>
+  AttenuationVolume(const HU* hounsfield, const uint8_t* keep, const Eigen::Vector3i& dims, const Eigen::Affine3d& indexToCT,
+    double muWater, double airThreshold = DefaultAirThreshold);
+
   static constexpr double DefaultAirThreshold = -950.0;
 
   /**
@@ -101,9 +107,10 @@ public:
 
 private:
   /** Stores mu of the voxels low + [0, size) of `hounsfield`, an arrayDims array of HU whose
-   *  largest non-air value is `highest`, as the voxels of StoredOrigin() + [0, size). */
+   *  largest non-air value is `highest`, as the voxels of StoredOrigin() + [0, size); where `keep`
+   *  is given, its 0 voxels as air. */
   template <typename HU>
-  void Store(const HU* hounsfield, const Eigen::Vector3i& arrayDims, const Eigen::Vector3i& low,
+  void Store(const HU* hounsfield, const uint8_t* keep, const Eigen::Vector3i& arrayDims, const Eigen::Vector3i& low,
     const Eigen::Vector3i& size, float highest, float airThreshold);
 
   /** Voxels() value of CT voxel (i, j, k), 0 outside the stored box. */

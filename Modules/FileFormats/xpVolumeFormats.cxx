@@ -1,7 +1,7 @@
 #include "xpVolumeFormats.h"
 
 #include "xpError.h"
-#include "xpHugePages.h"
+#include "xpPageMemory.h"
 
 #include <vtkFloatArray.h>
 #include <vtkShortArray.h>
@@ -282,7 +282,7 @@ CTVolume MakeCTVolume(
   const int64_t n = header.VoxelCount();
   if (KeepsWholeHU16(header))
   {
-    vtkSmartPointer<vtkShortArray> hu = NewHugePageShortArray(n);
+    vtkSmartPointer<vtkShortArray> hu = NewPageShortArray(n);
     hu->SetName("HU");
     int16_t* out = hu->GetPointer(0);
     if (header.type == VoxelType::Int16 && !header.bigEndian && header.intercept == 0.0)
@@ -292,7 +292,7 @@ CTVolume MakeCTVolume(
     image->GetPointData()->SetScalars(hu);
     return CTVolume{ image };
   }
-  vtkSmartPointer<vtkFloatArray> hu = NewHugePageFloatArray(n);
+  vtkSmartPointer<vtkFloatArray> hu = NewPageFloatArray(n);
   hu->SetName("HU");
   float* out = hu->GetPointer(0);
   int64_t bad = -1;

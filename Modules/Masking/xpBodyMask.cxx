@@ -296,7 +296,8 @@ void DilateSlices(std::vector<uint8_t>& body, const Eigen::Vector3i& d, int radi
 
 } // namespace
 
-std::vector<uint8_t> SegmentBody(const float* hu, const Eigen::Vector3i& dims, const BodyMaskSettings& settings)
+template <typename HU>
+std::vector<uint8_t> SegmentBody(const HU* hu, const Eigen::Vector3i& dims, const BodyMaskSettings& settings)
 {
   if ((dims.array() < 1).any() || !hu)
   {
@@ -332,6 +333,9 @@ std::vector<uint8_t> SegmentBody(const float* hu, const Eigen::Vector3i& dims, c
   return body;
 }
 
+template VTKXPMASKING_EXPORT std::vector<uint8_t> SegmentBody(const float*, const Eigen::Vector3i&, const BodyMaskSettings&);
+template VTKXPMASKING_EXPORT std::vector<uint8_t> SegmentBody(const int16_t*, const Eigen::Vector3i&, const BodyMaskSettings&);
+
 long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body)
 {
   return CountVoxels(body.size(),
@@ -344,13 +348,43 @@ long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body)
     });
 }
 
-vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings& settings, long long* removed, long long* table)
+BodyVoxels BodyOf(vtkImageData* ct, const BodyMaskSettings& settings)
 {
   vtkDataArray* scalars = ct ? ct->GetPointData()->GetScalars() : nullptr;
   if (!scalars || scalars->GetNumberOfComponents() != 1)
   {
     throw InputError("CT", "needs one scalar component in HU");
   }
+  int d[3];
+  ct->GetDimensions(d);
+  const Eigen::Vector3i dims(d[0], d[1], d[2]);
+  const float denseHU = static_cast<float>(settings.tableHU);
+  BodyVoxels body;
+  // The readers keep HU as 16-bit integers or floats: segmented as they are. Any other type is
+  // read as floats first.
+  const auto segment = [&](const auto* hu)
+  {
+    body.inBody = SegmentBody(hu, dims, settings);
+    body.tableVoxels = CountVoxels(body.inBody.size(), [&](size_t i) { return !body.inBody[i] && static_cast<float>(hu[i]) > denseHU; });
+  };
+  if (scalars->GetDataType() == VTK_SHORT)
+    segment(static_cast<const int16_t*>(scalars->GetVoidPointer(0)));
+  else if (scalars->GetDataType() == VTK_FLOAT)
+    segment(static_cast<const float*>(scalars->GetVoidPointer(0)));
+  else
+  {
+    std::vector<float> hu(static_cast<size_t>(scalars->GetNumberOfTuples()));
+    for (size_t i = 0; i < hu.size(); ++i)
+      hu[i] = static_cast<float>(scalars->GetTuple1(static_cast<vtkIdType>(i)));
+    segment(hu.data());
+  }
+  return body;
+}
+
+vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings& settings, long long* removed, long long* table)
+{
+  const BodyVoxels inBody = BodyOf(ct, settings);
+  vtkDataArray* scalars = ct->GetPointData()->GetScalars();
   auto body = vtkSmartPointer<vtkImageData>::New();
   body->CopyStructure(ct);
   body->SetDirectionMatrix(ct->GetDirectionMatrix());
@@ -368,15 +402,9 @@ vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings&
         to[i] = static_cast<float>(scalars->GetTuple1(i));
   }
   body->GetPointData()->SetScalars(values);
-  int dims[3];
-  ct->GetDimensions(dims);
-  const std::vector<uint8_t> inBody = SegmentBody(values->GetPointer(0), Eigen::Vector3i(dims[0], dims[1], dims[2]), settings);
   if (table)
-  {
-    const float denseHU = static_cast<float>(settings.tableHU);
-    *table = CountVoxels(inBody.size(), [&](size_t i) { return !inBody[i] && to[i] > denseHU; });
-  }
-  const long long cleared = ClearOutsideBody(values->GetPointer(0), inBody);
+    *table = inBody.tableVoxels;
+  const long long cleared = ClearOutsideBody(values->GetPointer(0), inBody.inBody);
   if (removed)
     *removed = cleared;
   return body;

@@ -45,8 +45,20 @@ struct BodyMaskSettings
  * filled, dilated by `dilation` voxels in-slice.
  * @param hu voxels, x fastest, dims[0] * dims[1] * dims[2] values
  */
+template <typename HU> // float, or int16_t as the CT readers keep whole-number HU
 VTKXPMASKING_EXPORT std::vector<uint8_t> SegmentBody(
-  const float* hu, const Eigen::Vector3i& dims, const BodyMaskSettings& settings = {});
+  const HU* hu, const Eigen::Vector3i& dims, const BodyMaskSettings& settings = {});
+
+/** A CT's body (SegmentBody) and how many voxels outside it are denser than settings.tableHU:
+ *  the CT's table. */
+struct BodyVoxels
+{
+  std::vector<uint8_t> inBody; ///< 1 in the body, one per voxel of the CT, x fastest
+  long long tableVoxels = 0;
+};
+
+/** SegmentBody of a HU image, on its own values (16-bit or float; others read as floats). */
+VTKXPMASKING_EXPORT BodyVoxels BodyOf(vtkImageData* ct, const BodyMaskSettings& settings = {});
 
 /** Sets every voxel outside `body` to -1000 HU (air); returns how many changed. */
 VTKXPMASKING_EXPORT long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body);

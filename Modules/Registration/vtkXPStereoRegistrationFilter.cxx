@@ -297,19 +297,20 @@ const xp::AttenuationVolume* vtkXPStereoRegistrationFilter::BodyAttenuation(vtkI
 {
   if (ct != this->BodySource || ct->GetMTime() != this->BodyTime || this->MuWater != this->BodyMuWater)
   {
-    long long tableVoxels = 0;
-    vtkSmartPointer<vtkImageData> body;
+    // The body's voxels flagged, and its volume made from the CT's own HU with the rest as air:
+    // no copy of the CT.
+    xp::BodyVoxels body;
     try
     {
-      body = xp::BodyOnly(ct, {}, nullptr, &tableVoxels);
+      body = xp::BodyOf(ct);
     }
     catch (const xp::InputError&)
     {
-      tableVoxels = 0; // no body to tell a table from (a CT of air, a thin shell): nothing to choose
+      body.tableVoxels = 0; // no body to tell a table from (a CT of air, a thin shell): nothing to choose
     }
     const double* spacing = ct->GetSpacing();
-    this->TableCM3 = static_cast<double>(tableVoxels) * std::abs(spacing[0] * spacing[1] * spacing[2]) / 1000.0;
-    this->BodyVolume = tableVoxels > 0 ? xp::MakeAttenuationVolume(body, this->MuWater) : nullptr;
+    this->TableCM3 = static_cast<double>(body.tableVoxels) * std::abs(spacing[0] * spacing[1] * spacing[2]) / 1000.0;
+    this->BodyVolume = body.tableVoxels > 0 ? xp::MakeAttenuationVolume(ct, this->MuWater, body.inBody.data()) : nullptr;
     this->BodySource = ct;
     this->BodyTime = ct->GetMTime();
     this->BodyMuWater = this->MuWater;

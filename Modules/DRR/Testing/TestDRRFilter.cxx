@@ -2,10 +2,16 @@
 // that the geometry predicts, and a patient misalignment moves it the way the convention says.
 #include "vtkXPDRRFilter.h"
 
+#include "xpImageGeometry.h"
 #include "xpPose.h"
 #include "xpReferenceGeometry.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
 #include <vtkNew.h>
@@ -190,4 +196,47 @@ TEST(vtkXPDRRFilter, SixteenBitAndFloatHUGiveTheSameDRR)
     largest = std::max(largest, static_cast<double>(la[i]));
   }
   EXPECT_GT(largest, 0.1); // the marker is in the picture
+}
+
+// The body's volume from the CT's own HU with voxels left out (`keep`) is, bit for bit, the volume
+// of a copy of the CT with those voxels set to air: the same stored box, quantum, both voxel
+// layouts and occupancy, and it differs from the whole CT's.
+TEST(vtkXPDRRFilter, VoxelsLeftOutAreTheVolumeOfACopyWithThemSetToAir)
+{
+  const Eigen::Vector3i dims(70, 50, 40);
+  const size_t count = static_cast<size_t>(dims.prod());
+  auto ct = vtkSmartPointer<vtkImageData>::New();
+  ct->SetDimensions(dims[0], dims[1], dims[2]);
+  ct->SetSpacing(0.9, 0.9, 2.0);
+  vtkNew<vtkShortArray> hu;
+  hu->SetNumberOfValues(static_cast<vtkIdType>(count));
+  std::vector<uint8_t> keep(count);
+  std::vector<float> cleared(count);
+  uint32_t state = 12345;
+  for (size_t n = 0; n < count; ++n)
+  {
+    const int i = static_cast<int>(n % dims[0]), j = static_cast<int>(n / dims[0] % dims[1]);
+    state = state * 1664525u + 1013904223u;
+    // A body in the middle, a dense "table" along the low rows, air and its noise elsewhere.
+    const bool body = std::hypot(i - 35.0, j - 22.0) < 16.0, table = j >= 44 && j < 47;
+    const short value = static_cast<short>(body ? 40 + (state >> 22) % 900 : table ? 1500 : -1000 + (state >> 24) % 80);
+    hu->SetValue(static_cast<vtkIdType>(n), value);
+    keep[n] = body;
+    cleared[n] = body ? static_cast<float>(value) : -1000.0f;
+  }
+  ct->GetPointData()->SetScalars(hu);
+  const std::unique_ptr<xp::AttenuationVolume> kept = xp::MakeAttenuationVolume(ct, 0.02, keep.data());
+  const xp::AttenuationVolume copied(cleared.data(), dims, xp::IndexToPhysical(ct), 0.02);
+  const std::unique_ptr<xp::AttenuationVolume> whole = xp::MakeAttenuationVolume(ct, 0.02);
+  EXPECT_EQ(kept->StoredOrigin(), copied.StoredOrigin());
+  ASSERT_EQ(kept->PaddedDimensions(), copied.PaddedDimensions());
+  EXPECT_EQ(kept->Quantum(), copied.Quantum());
+  const size_t voxels = static_cast<size_t>(copied.PaddedDimensions().prod());
+  EXPECT_TRUE(std::equal(kept->Voxels(), kept->Voxels() + voxels, copied.Voxels()));
+  EXPECT_TRUE(std::equal(kept->VoxelsYFastest(), kept->VoxelsYFastest() + voxels, copied.VoxelsYFastest()));
+  ASSERT_EQ(kept->BlockDimensions(), copied.BlockDimensions());
+  EXPECT_TRUE(std::equal(kept->OccupancyGrid(), kept->OccupancyGrid() + copied.BlockDimensions().prod(), copied.OccupancyGrid()));
+  // The table and the air's noise were left out: the whole CT's box is larger, its quantum coarser.
+  EXPECT_NE(whole->PaddedDimensions(), kept->PaddedDimensions());
+  EXPECT_GT(whole->Quantum(), kept->Quantum());
 }

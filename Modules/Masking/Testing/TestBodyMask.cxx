@@ -2,6 +2,9 @@
 #include "xpBodyMask.h"
 
 #include <gtest/gtest.h>
+#include <vtkDataArray.h>
+#include <vtkImageData.h>
+#include <vtkPointData.h>
 
 #include <algorithm>
 #include <cmath>
@@ -213,6 +216,36 @@ TEST(BodyMask, MatchesTheVoxelByVoxelReference)
       EXPECT_GT(std::count(body.begin(), body.end(), 1), 0);
     }
   }
+}
+
+// A CT read as 16-bit HU is segmented on its own values: BodyOf gives the voxels and the table's
+// count that the float copy gives, and BodyOnly the same cleared copy from either type.
+TEST(BodyMask, A16BitCTIsSegmentedAsItsFloatCopy)
+{
+  Scene scene; // its table shell (-100 HU) is denser than tableHU
+  const auto image = [&](int type)
+  {
+    auto ct = vtkSmartPointer<vtkImageData>::New();
+    ct->SetDimensions(scene.dims[0], scene.dims[1], scene.dims[2]);
+    ct->AllocateScalars(type, 1);
+    for (vtkIdType i = 0; i < ct->GetNumberOfPoints(); ++i)
+      ct->GetPointData()->GetScalars()->SetTuple1(i, scene.hu[static_cast<size_t>(i)]);
+    return ct;
+  };
+  const vtkSmartPointer<vtkImageData> shortCT = image(VTK_SHORT), floatCT = image(VTK_FLOAT);
+  const xp::BodyVoxels fromShort = xp::BodyOf(shortCT), fromFloat = xp::BodyOf(floatCT);
+  EXPECT_TRUE(fromShort.inBody == xp::SegmentBody(scene.hu.data(), scene.dims));
+  EXPECT_TRUE(fromShort.inBody == fromFloat.inBody);
+  EXPECT_EQ(fromShort.tableVoxels, 80 * 4 * 10);
+  EXPECT_EQ(fromFloat.tableVoxels, fromShort.tableVoxels);
+  long long removed = 0, table = 0;
+  const vtkSmartPointer<vtkImageData> body = xp::BodyOnly(shortCT, {}, &removed, &table);
+  EXPECT_EQ(table, fromShort.tableVoxels);
+  EXPECT_EQ(removed, 80 * 4 * 10);
+  std::vector<float> cleared = scene.hu;
+  xp::ClearOutsideBody(cleared.data(), fromShort.inBody);
+  const float* values = static_cast<const float*>(body->GetScalarPointer());
+  EXPECT_TRUE(std::equal(cleared.begin(), cleared.end(), values));
 }
 
 TEST(BodyMask, RefusesACTWithoutTissue)

@@ -1,4 +1,4 @@
-#include "xpHugePages.h"
+#include "xpPageMemory.h"
 
 #include "xpError.h"
 
@@ -8,6 +8,7 @@
 #endif
 
 #include <cstdint>
+#include <cstdlib>
 #include <string>
 #include <sys/mman.h>
 
@@ -19,7 +20,18 @@ namespace
 
 constexpr size_t HugePage = size_t(2) << 20;
 
-/** Kept just below the aligned start, so that FreeHugePages needs nothing but the pointer. */
+/** XPOSE_HUGE_PAGES=1: buffers marked for transparent huge pages (xpPageMemory.h). */
+bool HugePagesAsked()
+{
+  static const bool asked = []
+  {
+    const char* value = std::getenv("XPOSE_HUGE_PAGES");
+    return value && std::string(value) == "1";
+  }();
+  return asked;
+}
+
+/** Kept just below the aligned start, so that FreePages needs nothing but the pointer. */
 struct Mapping
 {
   void* start;
@@ -33,7 +45,7 @@ Mapping* MappingOf(void* aligned)
 
 } // namespace
 
-void* AllocateHugePages(size_t bytes)
+void* AllocatePages(size_t bytes)
 {
   const size_t rounded = (bytes + HugePage - 1) / HugePage * HugePage;
   if (rounded < bytes || rounded > SIZE_MAX - 2 * HugePage)
@@ -50,11 +62,12 @@ void* AllocateHugePages(size_t bytes)
   const uintptr_t address = reinterpret_cast<uintptr_t>(start) + sizeof(Mapping);
   void* aligned = reinterpret_cast<void*>((address + HugePage - 1) / HugePage * HugePage);
   *MappingOf(aligned) = Mapping{ start, length };
-  madvise(aligned, rounded, MADV_HUGEPAGE);
+  if (HugePagesAsked())
+    madvise(aligned, rounded, MADV_HUGEPAGE);
   return aligned;
 }
 
-void FreeHugePages(void* memory)
+void FreePages(void* memory)
 {
   if (memory)
   {
@@ -68,26 +81,26 @@ namespace
 {
 
 template <class ArrayT>
-vtkSmartPointer<ArrayT> NewHugePageArray(vtkIdType count)
+vtkSmartPointer<ArrayT> NewPageArray(vtkIdType count)
 {
   using Value = typename ArrayT::ValueType;
   auto array = vtkSmartPointer<ArrayT>::New();
-  auto* values = static_cast<Value*>(AllocateHugePages(static_cast<size_t>(count) * sizeof(Value)));
+  auto* values = static_cast<Value*>(AllocatePages(static_cast<size_t>(count) * sizeof(Value)));
   array->SetArray(values, count, 0, ArrayT::VTK_DATA_ARRAY_USER_DEFINED);
-  array->SetArrayFreeFunction(&FreeHugePages);
+  array->SetArrayFreeFunction(&FreePages);
   return array;
 }
 
 } // namespace
 
-vtkSmartPointer<vtkFloatArray> NewHugePageFloatArray(vtkIdType count)
+vtkSmartPointer<vtkFloatArray> NewPageFloatArray(vtkIdType count)
 {
-  return NewHugePageArray<vtkFloatArray>(count);
+  return NewPageArray<vtkFloatArray>(count);
 }
 
-vtkSmartPointer<vtkShortArray> NewHugePageShortArray(vtkIdType count)
+vtkSmartPointer<vtkShortArray> NewPageShortArray(vtkIdType count)
 {
-  return NewHugePageArray<vtkShortArray>(count);
+  return NewPageArray<vtkShortArray>(count);
 }
 
 #endif
