@@ -9,7 +9,8 @@
  * Transparent huge pages are asked for only with XPOSE_HUGE_PAGES=1 in the environment. On the
  * 2-core virtual machines xpose is measured on (CI's kind), a huge page's first touch costs
  * several times a small page's (the host backs it afresh), and a pelvis registration took more
- * time with them and no less CPU in its ray casting (Performance.md, "Memory pages").
+ * time with them and no less CPU in its ray casting (Performance.md, "Memory pages and the
+ * body's volume").
  */
 #ifndef xpPageMemory_h
 #define xpPageMemory_h
