@@ -230,8 +230,13 @@ AttenuationVolume AttenuationVolume::Halved(const Eigen::Vector3i& factors) cons
   const Eigen::Vector3i size =
     (this->Origin + this->StoredDimensions() - Eigen::Vector3i::Ones()).cwiseQuotient(factors) - half.Origin +
     Eigen::Vector3i::Ones();
-  // Back to HU, which Store takes: mean mu = muWater (1 + HU / 1000).
+  // Back to HU, which Store takes: mean mu = muWater (1 + HU / 1000). A half voxel covers CT
+  // voxels from one before the stored box to one beyond it at most: the padding's zeros, so the
+  // padded voxels are read without bounds checks.
   std::vector<float> hounsfield(static_cast<size_t>(size.prod()));
+  const uint16_t* mu = this->Mu.get();
+  const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
+  const Eigen::Vector3i toPadded = Eigen::Vector3i::Ones() - this->Origin;
   ParallelFor(0, size[2],
     [&](int k0, int k1)
     {
@@ -245,8 +250,11 @@ AttenuationVolume AttenuationVolume::Halved(const Eigen::Vector3i& factors) cons
             int count = 0;
             for (int z = first[2]; z <= last[2]; ++z)
               for (int y = first[1]; y <= last[1]; ++y)
+              {
+                const uint16_t* row = mu + static_cast<size_t>(z + toPadded[2]) * nxy + static_cast<size_t>(y + toPadded[1]) * nx;
                 for (int x = first[0]; x <= last[0]; ++x, ++count)
-                  sum += this->StepsAt(x, y, z);
+                  sum += row[x + toPadded[0]];
+              }
             hounsfield[(static_cast<size_t>(k) * size[1] + j) * size[0] + i] =
               static_cast<float>(1000.0 * (this->Step * sum / count / this->Water - 1.0));
           }

@@ -8,22 +8,50 @@ namespace xp
 
 void LevelTable::Build(const float* values, const uint8_t* mask, long long count)
 {
-  std::vector<float> sorted;
-  sorted.reserve(static_cast<size_t>(count));
+  // The sample's range, then each cell's share of the sample below its middle: a count per cell
+  // of the values that lie between its middle and the one before, summed up. No sort: each value
+  // finds its cell from the cells' spacing and the exact middles (a sort and a binary search per
+  // cell gave the same table, at ten times the time).
+  long long n = 0;
+  float lowest = 0.0f, highest = 0.0f;
   for (long long i = 0; i < count; ++i)
-    if (!mask || mask[i])
-      sorted.push_back(values[i]);
-  std::sort(sorted.begin(), sorted.end());
-  const double low = sorted.empty() ? 0.0 : sorted.front(), high = sorted.empty() ? 1.0 : sorted.back();
+  {
+    if (mask && !mask[i])
+      continue;
+    const float v = values[i];
+    lowest = n == 0 ? v : std::min(lowest, v);
+    highest = n == 0 ? v : std::max(highest, v);
+    ++n;
+  }
+  const double low = n == 0 ? 0.0 : lowest, high = n == 0 ? 1.0 : highest;
   const double margin = std::max(0.2 * (high - low), 1e-6);
   this->LowValue = low - margin;
   this->CellsPerValue = RankLevels / (high - low + 2.0 * margin);
+  std::vector<float> middle(RankLevels);
+  for (int c = 0; c < RankLevels; ++c)
+    middle[c] = static_cast<float>(this->LowValue + (c + 0.5) / this->CellsPerValue);
+  // below[c] counts the values under middle[c]: a value counts for every cell from the first whose
+  // middle exceeds it (the middles never decrease).
+  std::vector<long long> first(RankLevels + 1, 0);
+  for (long long i = 0; i < count; ++i)
+  {
+    if (mask && !mask[i])
+      continue;
+    const float v = values[i];
+    const double guess = std::floor((v - this->LowValue) * this->CellsPerValue + 0.5);
+    int j = static_cast<int>(std::clamp(guess, 0.0, static_cast<double>(RankLevels)));
+    while (j > 0 && middle[j - 1] > v)
+      --j;
+    while (j < RankLevels && middle[j] <= v)
+      ++j;
+    ++first[j];
+  }
   this->Table.resize(RankLevels);
+  long long below = 0;
   for (int c = 0; c < RankLevels; ++c)
   {
-    const float middle = static_cast<float>(this->LowValue + (c + 0.5) / this->CellsPerValue);
-    const size_t below = std::lower_bound(sorted.begin(), sorted.end(), middle) - sorted.begin();
-    this->Table[c] = static_cast<uint16_t>(sorted.empty() ? 0 : (RankLevels - 1) * static_cast<double>(below) / sorted.size());
+    below += first[c];
+    this->Table[c] = static_cast<uint16_t>(n == 0 ? 0 : (RankLevels - 1) * static_cast<double>(below) / n);
   }
 }
 

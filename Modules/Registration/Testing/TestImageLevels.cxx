@@ -6,9 +6,70 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
+#include <vector>
 
 namespace
 {
+
+/** LevelTable's levels as first written: the sample sorted, each cell's middle looked up in it. */
+std::vector<uint16_t> SortedLevels(const std::vector<float>& values, const std::vector<uint8_t>& mask)
+{
+  std::vector<float> sorted;
+  for (size_t i = 0; i < values.size(); ++i)
+    if (mask.empty() || mask[i])
+      sorted.push_back(values[i]);
+  std::sort(sorted.begin(), sorted.end());
+  const double low = sorted.empty() ? 0.0 : sorted.front(), high = sorted.empty() ? 1.0 : sorted.back();
+  const double margin = std::max(0.2 * (high - low), 1e-6);
+  const double lowValue = low - margin, cellsPerValue = xp::RankLevels / (high - low + 2.0 * margin);
+  std::vector<uint16_t> table(xp::RankLevels);
+  for (int c = 0; c < xp::RankLevels; ++c)
+  {
+    const float middle = static_cast<float>(lowValue + (c + 0.5) / cellsPerValue);
+    const size_t below = std::lower_bound(sorted.begin(), sorted.end(), middle) - sorted.begin();
+    table[c] = static_cast<uint16_t>(sorted.empty() ? 0 : (xp::RankLevels - 1) * static_cast<double>(below) / sorted.size());
+  }
+  return table;
+}
+
+// The level table counts each value into its cell instead of sorting: the same levels, bit for bit,
+// as the sort's on wide and narrow ranges, ties, values on the cells' middles, masks, a constant
+// image and an empty sample.
+TEST(LevelTable, CountsEachValueIntoItsCellAsTheSortedSampleDoes)
+{
+  std::mt19937 random(3);
+  std::normal_distribution<float> normal(0.0f, 1.0f);
+  std::uniform_int_distribution<int> coin(0, 3);
+  for (int trial = 0; trial < 6; ++trial)
+  {
+    const size_t n = 20000;
+    std::vector<float> values(n);
+    std::vector<uint8_t> mask;
+    for (float& v : values)
+      v = trial == 0 ? 7.5f                                     // constant
+        : trial == 1 ? static_cast<float>(coin(random)) * 0.25f // few distinct values
+        : trial == 2 ? 1e-4f * normal(random)                   // a narrow range
+        : trial == 3 ? 300.0f + 80.0f * normal(random)          // line integrals' size
+        : std::exp(2.0f * normal(random));                      // heavy tail
+    if (trial >= 4)
+    {
+      mask.resize(n);
+      for (uint8_t& m : mask)
+        m = trial == 5 ? 0 : coin(random) != 0; // trial 5: nothing kept
+    }
+    if (trial == 3) // values exactly on middles of cells inside the range (which they leave as it is)
+    {
+      xp::LevelTable first;
+      first.Build(values.data(), nullptr, static_cast<long long>(n));
+      for (int c = 700; c < 3400; c += 97)
+        values[static_cast<size_t>(c)] = static_cast<float>(first.Low() + (c + 0.5) / first.ToCell());
+    }
+    xp::LevelTable table;
+    table.Build(values.data(), mask.empty() ? nullptr : mask.data(), static_cast<long long>(n));
+    EXPECT_TRUE(table.Levels() == SortedLevels(values, mask)) << "trial " << trial;
+  }
+}
 
 TEST(Median3x3, RemovesAnIsolatedOutlierAndKeepsAStepEdgeInPlace)
 {
