@@ -125,8 +125,13 @@ void Record(VariantFigures& variant, const TrialRecord& record, const StereoRegi
   gate.wallSeconds = result.gateSeconds;
   gate.cpuSeconds = result.gateCPUSeconds;
   add("quality gate (each view's checks)", gate);
+  StageFigures table;
+  table.wallSeconds = result.table ? result.table->seconds : 0.0;
+  table.cpuSeconds = -1.0;
+  if (result.table)
+    add("table's choice (the body's segmentation, the CT with its table compared)", table);
   // What no stage holds: reading the X-rays into the filter, the end-face test, the records.
-  double staged = prealign.wallSeconds + masks.wallSeconds + gate.wallSeconds;
+  double staged = prealign.wallSeconds + masks.wallSeconds + gate.wallSeconds + table.wallSeconds;
   double stagedCPU = prealign.cpuSeconds + masks.cpuSeconds + gate.cpuSeconds;
   for (const RegistrationStage& stage : result.stages)
     staged += stage.seconds, stagedCPU += stage.cpuSeconds;

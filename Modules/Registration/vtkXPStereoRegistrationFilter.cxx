@@ -17,6 +17,7 @@
 #include <vtkDataArray.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include <chrono>
 #include <cmath>
 #include <optional>
 
@@ -382,9 +383,13 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
       // (a table the X-rays show pulls the body alone's a little off; one they do not show pulls
       // the CT with it away), and is pre-aligned in full only when kept.
       xp::TableChoice choice;
+      using Clock = std::chrono::steady_clock;
+      const auto since = [](Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); };
+      Clock::time_point start = Clock::now();
       // A bone cut out of a CT has no table; its registration matches the bone's shadow alone.
       const bool bone = this->Settings.detectBoneOnly && xp::OuterSurfaceIsBone(volume);
       const xp::AttenuationVolume* body = bone ? nullptr : this->BodyAttenuation(ct);
+      choice.seconds = since(start);
       choice.tableCM3 = body ? this->TableCM3 : 0.0;
       std::optional<xp::StereoRegistrationInStages> bodyOnly;
       if (body)
@@ -392,7 +397,9 @@ int vtkXPStereoRegistrationFilter::RequestData(vtkInformation*, vtkInformationVe
         bodyOnly.emplace(*body, planned, this->Geometry.isocenter, views, this->Settings, observer);
         const xp::PreAlignedCT aligned = bodyOnly->PreAlign();
         choice.bodyOnly = aligned.highPassedObjective;
+        start = Clock::now();
         choice.withTable = bodyOnly->HighPassedObjectiveOf(volume, aligned.prealignment.pose, 2);
+        choice.seconds += since(start);
         choice.keptTable = choice.withTable > choice.bodyOnly;
       }
       xp::StereoRegistrationResult result;

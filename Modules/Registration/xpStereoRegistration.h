@@ -223,6 +223,10 @@ struct TableChoice
    *  from there (StereoRegistrationInStages::HighPassedObjectiveOf). */
   double withTable = 0.0, bodyOnly = 0.0;
   bool keptTable = true; ///< the DRRs were rendered from the CT with its table
+  /** Wall time of the choice beside the registration's own stages: the body's segmentation and
+   *  volume (none where a session kept them), and the CT with its table taken to the body's pose
+   *  and compared there. The pre-alignment of the CT registered is prealignSeconds. */
+  double seconds = 0.0;
 };
 
 struct StereoRegistrationResult
