@@ -87,6 +87,9 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds at most of moving the refinement's end to the vertex of the objective's parabola along each axis, through its "
     "values 1.5 mm and 1 degree either side, until one moves less than the refinement's stop (0: off)")->capture_default_str();
+  command->add_option("--half-size-refinement", settings.halfSizeRefinement,
+    "Before the full-size refinement, one on half-size images of the same high-passed objective (steps and stops twice "
+    "the refinement's): the full-size refinement starts near its end (Algorithms.md, \"The schedule\")")->capture_default_str();
   command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
   command->add_option("--held-out-high-pass-mm", settings.heldOutHighPassMM,

@@ -155,6 +155,19 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
     refinement.optimizer.toleranceMM = 2.0 * refinement.optimizer.toleranceMM;
     refinement.optimizer.toleranceDegrees = 2.0 * refinement.optimizer.toleranceDegrees;
   }
+  if (settings.halfSizeRefinement && pyramid)
+  {
+    // Every end refined in full at half size (no stop at the first end's: the full-size stage
+    // stops the second end there).
+    ScheduledStage half = Stage(StageKind::Refinement, "fine (half resolution)", coarse, 0.7, 0.75);
+    half.optimizer = refinement.optimizer;
+    half.optimizer.initialStepMM *= 2.0;
+    half.optimizer.initialStepDegrees *= 2.0;
+    half.optimizer.toleranceMM *= 2.0;
+    half.optimizer.toleranceDegrees *= 2.0;
+    stages.push_back(half);
+    refinement.progressFrom = 0.75;
+  }
   stages.push_back(refinement);
   if (boneOnly)
   {

@@ -822,7 +822,7 @@ public:
           break;
         }
         case StageKind::Refinement:
-          refined = this->Refine(stage, searchEnds.ends);
+          refined = this->Refine(stage, refined.ends.empty() ? searchEnds.ends : PosesOf(refined.ends));
           if (refined.ends.size() == 2)
           {
             this->Result.searchDisagreementMM = refined.disagreement.mm;
@@ -845,6 +845,8 @@ public:
           const PoseOptimizerResult& end = refined.ends.front();
           this->MeasureAround(stage, end);
           this->Result.drrCount += this->Fine->RenderedDRRs();
+          for (auto& [divisor, similarity] : this->ShrunkRefinements)
+            this->Result.drrCount += similarity->RenderedDRRs();
           this->Result.converged = end.converged;
           this->Result.misalignment = this->AboutIsocenter(end.pose);
           this->Result.correction = this->Result.misalignment.Inverse();
@@ -1116,27 +1118,9 @@ private:
   Refined Refine(const ScheduledStage& stage, const std::vector<Pose>& ends)
   {
     const StereoRegistrationSettings& settings = this->Settings;
-    if (settings.coverageMask)
-    {
-      const Eigen::Isometry3d searched = this->CTToRoom(ends.front());
-      for (size_t v = 0; v < this->Masked.size(); ++v)
-      {
-        RegistrationView& item = this->Masked[v];
-        item.mask = this->Content[v];
-        AndCoverage(item, *this->Coverage, searched, this->Result.endFaces[v].facesToLeaveOut);
-        if (std::count(item.mask.begin(), item.mask.end(), 1) == 0)
-          throw InputError("view " + item.view.name, "the CT covers none of the valid pixels: nothing left to register");
-      }
-    }
-    if (this->Result.boneOnly)
-      AndShadowLessCuts(this->Masked, this->Volume, this->CTToRoom(ends.front()), settings.boneShadowFineMarginMM,
-        this->CutPoints, settings.device);
-    this->Fine = this->Similarity(
-      this->Volume, this->Masked, { settings.equalizedLevels, settings.fineHighPassMM, this->CorrelationMM });
-    this->Result.fineRenderStride = settings.fineRenderStride > 0
-      ? RenderStride{ settings.fineRenderStride, settings.fineRenderStride }
-      : RenderStrideFor(this->Volume, this->Masked, this->PlannedCTToRoom, this->Isocenter);
-    this->Fine->SetRenderStride(this->Result.fineRenderStride);
+    if (!this->Fine)
+      this->PrepareRefinement(ends.front());
+    StereoSimilarity& similarity = this->RefinementSimilarity(stage.imageDivisor);
     Refined refined;
     for (size_t e = 0; e < ends.size(); ++e)
     {
@@ -1153,7 +1137,7 @@ private:
         optimizer.stopWhen = [first, &settings](const Pose& pose, double value)
         { return Agree(pose, first.pose, settings) && value >= settings.sameOptimumObjectiveRatio * first.value; };
       }
-      refined.ends.push_back(MaximizePose(this->Traced(*this->Fine), ends[e], optimizer));
+      refined.ends.push_back(MaximizePose(this->Traced(similarity), ends[e], optimizer));
       this->Result.evaluations += refined.ends.back().evaluations;
     }
     this->Trace.End();
@@ -1169,6 +1153,61 @@ private:
         std::swap(refined.ends[0], refined.ends[1]);
     }
     return refined;
+  }
+
+  /** Before the first refinement stage: the masks taken again where the searches ended
+   *  (`searchedPose`, the better end), and the full-size similarity the refinement, the polish and
+   *  the gate read. */
+  void PrepareRefinement(const Pose& searchedPose)
+  {
+    const StereoRegistrationSettings& settings = this->Settings;
+    if (settings.coverageMask)
+    {
+      const Eigen::Isometry3d searched = this->CTToRoom(searchedPose);
+      for (size_t v = 0; v < this->Masked.size(); ++v)
+      {
+        RegistrationView& item = this->Masked[v];
+        item.mask = this->Content[v];
+        AndCoverage(item, *this->Coverage, searched, this->Result.endFaces[v].facesToLeaveOut);
+        if (std::count(item.mask.begin(), item.mask.end(), 1) == 0)
+          throw InputError("view " + item.view.name, "the CT covers none of the valid pixels: nothing left to register");
+      }
+    }
+    if (this->Result.boneOnly)
+      AndShadowLessCuts(this->Masked, this->Volume, this->CTToRoom(searchedPose), settings.boneShadowFineMarginMM,
+        this->CutPoints, settings.device);
+    this->Fine = this->Similarity(
+      this->Volume, this->Masked, { settings.equalizedLevels, settings.fineHighPassMM, this->CorrelationMM });
+    this->Result.fineRenderStride = settings.fineRenderStride > 0
+      ? RenderStride{ settings.fineRenderStride, settings.fineRenderStride }
+      : RenderStrideFor(this->Volume, this->Masked, this->PlannedCTToRoom, this->Isocenter);
+    this->Fine->SetRenderStride(this->Result.fineRenderStride);
+  }
+
+  /** The refinement's objective at `divisor`: the full-size one (Fine), or the same high-passed
+   *  levels on the masked views shrunk, from the CT the searches at that size render, at the stride
+   *  RenderStrideFor gives them. */
+  StereoSimilarity& RefinementSimilarity(int divisor)
+  {
+    if (divisor == 1)
+      return *this->Fine;
+    std::unique_ptr<StereoSimilarity>& similarity = this->ShrunkRefinements[divisor];
+    if (!similarity)
+    {
+      const std::vector<RegistrationView> views = Shrunk(this->Masked, divisor);
+      const AttenuationVolume& volume = this->VolumeFor(divisor);
+      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, this->Settings.fineHighPassMM, this->CorrelationMM });
+      similarity->SetRenderStride(RenderStrideFor(volume, views, this->PlannedCTToRoom, this->Isocenter));
+    }
+    return *similarity;
+  }
+
+  static std::vector<Pose> PosesOf(const std::vector<PoseOptimizerResult>& ends)
+  {
+    std::vector<Pose> poses;
+    for (const PoseOptimizerResult& end : ends)
+      poses.push_back(end.pose);
+    return poses;
   }
 
   /** Step 3c: the refinement's small simplex stops on the first bump of a noisy objective near
@@ -1336,6 +1375,7 @@ private:
   std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
   std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
   std::map<int, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor
+  std::map<int, std::unique_ptr<StereoSimilarity>> ShrunkRefinements; ///< the refinement's objective on shrunk images, by divisor
   /** The vertex polish's last round's evaluations, where it ran: the landscape's curvature. */
   std::optional<AxisProbes> PolishProbes;
   size_t NextStage = 0; ///< the first stage of the schedule not yet run

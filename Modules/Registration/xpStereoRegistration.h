@@ -109,6 +109,11 @@ struct StereoRegistrationSettings
    *  but turned as many verdicts at the gate's limits as it mended (Algorithms.md, "Registration",
    *  3). Not for a bone-only volume (its restarts judge the end). */
   int vertexPolishRounds = 1;
+  /** Before the full-size refinement, one on half-size images of the same high-passed objective
+   *  (steps and stops twice the refinement's), from the searches' ends: the climb from the
+   *  searches' objective to the refinement's is made on a quarter of the pixels, and the
+   *  full-size refinement starts near its end (MakeSchedule). With a pyramid only. */
+  bool halfSizeRefinement = false;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
   bool coverageMask = true;

@@ -1100,6 +1100,47 @@ TEST(RegistrationSchedule, TheEconomyScheduleFindsThePoseCastingFewerRays)
   EXPECT_TRUE(quarter);
 }
 
+// --half-size-refinement: a refinement at half size on the refinement's objective, then the
+// full-size one from its end, which has no more to climb (on this scene the searches end near the
+// peak; on the pelvis it took half the evaluations: Algorithms.md); the pose as near the truth.
+TEST(RegistrationSchedule, AHalfSizeRefinementComesBeforeTheFullSizeOne)
+{
+  xp::StereoRegistrationSettings settings;
+  settings.halfSizeRefinement = true;
+  const xp::RegistrationSchedule schedule = xp::MakeSchedule(settings, true, true, false);
+  std::vector<std::pair<xp::StageKind, int>> refinements;
+  for (const xp::ScheduledStage& stage : schedule.stages)
+    if (stage.kind == xp::StageKind::Refinement)
+      refinements.emplace_back(stage.kind, stage.imageDivisor);
+  ASSERT_EQ(refinements.size(), 2u);
+  EXPECT_EQ(refinements[0].second, 2);
+  EXPECT_EQ(refinements[1].second, 1);
+  EXPECT_EQ(xp::MakeSchedule(settings, false, false, false).stages.size(), xp::MakeSchedule({}, false, false, false).stages.size())
+    << "no half size without a pyramid";
+
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 512, 384);
+  const xp::StereoRegistrationResult plain = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  const xp::StereoRegistrationResult halved =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, settings);
+  ASSERT_TRUE(halved.ok) << (halved.Reasons().empty() ? "" : halved.Reasons().front());
+  EXPECT_LT((halved.misalignment.translation - truth.translation).norm(), 0.5);
+  EXPECT_NEAR(halved.misalignment.yaw, truth.yaw, 0.3);
+  const auto evaluationsOf = [](const xp::StereoRegistrationResult& r, const std::string& name, int divisor)
+  {
+    for (const xp::RegistrationStage& stage : r.stages)
+      if (stage.name == name && stage.imageDivisor == divisor)
+        return stage.evaluations;
+    return -1;
+  };
+  EXPECT_GT(evaluationsOf(halved, "fine (half resolution)", 2), 0);
+  EXPECT_EQ(evaluationsOf(plain, "fine (half resolution)", 2), -1);
+  std::printf("full-size refinement: %d evaluations after the half-size one, %d alone\n", evaluationsOf(halved, "fine", 1),
+    evaluationsOf(plain, "fine", 1));
+  EXPECT_LE(evaluationsOf(halved, "fine", 1), evaluationsOf(plain, "fine", 1));
+}
+
 TEST(RegistrationSchedule, TheTraceCountsEachStagesEvaluationsAtItsSize)
 {
   Scene scene;
