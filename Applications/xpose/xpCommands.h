@@ -149,7 +149,7 @@ struct SimulateOptions
 struct RegisterOptions : RegistrationSources
 {
   std::string initialPose;          ///< "tx,ty,tz,pitch,roll,yaw"; empty = the planned set-up
-  std::string optimizer = "nelder-mead"; ///< of the 6-DOF stages: one name, or SEARCH/REFINEMENT
+  std::string optimizer = DefaultOptimizers(); ///< of the 6-DOF stages: one name, or SEARCH/REFINEMENT
   bool globalSearch = false;        ///< find the start (xpGlobalSearch.h); always for a TIFF volume without initialPose
   StereoRegistrationSettings settings = CommandSettings(); ///< the method and its quality gate, as the options set them
   int threads = 0;
@@ -223,7 +223,7 @@ struct EvaluateOptions
   bool removeTable = false;         ///< --remove-table: register against the body alone
   /** Registration steps switched off, to measure what each does: levels, high-pass, coverage. */
   std::vector<std::string> registrationOff;
-  std::string optimizer = "nelder-mead"; ///< as register's --optimizer: SEARCH or SEARCH/REFINEMENT
+  std::string optimizer = DefaultOptimizers(); ///< as register's --optimizer: SEARCH or SEARCH/REFINEMENT
   StereoRegistrationSettings settings = CommandSettings(); ///< each approach's, but for the entropy mask
   std::vector<std::string> approaches{ "A", "B" };
   double noise = 30.0;              ///< quantum noise of the noisy scenarios, grey levels

@@ -12,6 +12,7 @@ vtkStandardNewMacro(vtkXPRegistrationSession);
 
 vtkXPRegistrationSession::vtkXPRegistrationSession()
   : MuWater(xp::WaterAttenuationPerMM)
+  , Optimizer(xp::DefaultOptimizers())
 {
 }
 

@@ -137,7 +137,7 @@ private:
   bool RemoveTable = false;
   bool ChooseTable = true;
   double InitialPose[6] = { 0, 0, 0, 0, 0, 0 };
-  std::string Optimizer = "nelder-mead";
+  std::string Optimizer; ///< xp::DefaultOptimizers() until set
   bool EntropyMask = true;
   std::string Device = "cpu";
   std::string Schedule = "economy";

@@ -25,6 +25,14 @@ void SetOptimizers(const std::string& text, StereoRegistrationSettings& settings
   settings.refinementOptimizer = ParsePoseOptimizerMethod(slash == std::string::npos ? text : text.substr(slash + 1), option);
 }
 
+std::string DefaultOptimizers()
+{
+  const StereoRegistrationSettings settings;
+  const std::string search = PoseOptimizerMethodName(settings.optimizer);
+  const std::string refinement = PoseOptimizerMethodName(settings.refinementOptimizer);
+  return search == refinement ? search : search + "/" + refinement;
+}
+
 void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
 {
   CheckLimit(settings.bins, 8, 256, "--bins");

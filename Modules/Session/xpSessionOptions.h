@@ -28,6 +28,9 @@ VTKXPSESSION_EXPORT void CheckRegistrationSettings(const StereoRegistrationSetti
 /** "SEARCH/REFINEMENT" or one optimiser for both (xpPoseOptimizer.h) into `settings`; an unknown
  *  name is an InputError naming `option`. */
 VTKXPSESSION_EXPORT void SetOptimizers(const std::string& text, StereoRegistrationSettings& settings, const std::string& option);
+/** The default settings' optimisers as SetOptimizers reads them: "SEARCH/REFINEMENT", or one name
+ *  for both: what every command and the session start from. */
+VTKXPSESSION_EXPORT std::string DefaultOptimizers();
 
 } // namespace xp
 
