@@ -3,8 +3,13 @@
 same trials): per cell and over all right-anatomy cells, the paired change of mTRE over the
 trials `ok` in both runs, and the `ok` counts.
 
-Usage: python3 Utilities/compare-matrix-runs.py BASE_PREFIX NEW_PREFIX
-  e.g. eval/s13- eval/vp1--  (each cell's trials.csv lies in PREFIX + cell name)."""
+Usage: python3 Utilities/compare-matrix-runs.py [--goals] BASE_PREFIX NEW_PREFIX
+  e.g. eval/s13- eval/vp1--  (each cell's trials.csv lies in PREFIX + cell name).
+--goals prints instead, per cell, both runs against the product's goals (success = ok with mTRE
+< 2 mm; a right-anatomy cell meets them with >= 9/10 success, a median mTRE of its ok trials
+<= 0.35 mm and signed medians tx ty tz within +-0.2 mm; a wrong-anatomy cell with no ok), the
+median evaluations, and the totals: ok beyond 2 mm, false failed (not ok, mTRE < 1 mm),
+wrong-anatomy ok.  Wrong-anatomy cells are those named wrong-* or near-*."""
 import csv
 import os
 import statistics
@@ -22,10 +27,81 @@ def trials(prefix, cell):
         return list(csv.DictReader(f))
 
 
+def median(values):
+    return statistics.median(values) if values else float("nan")
+
+
+def goals(rows, wrong):
+    """One run's figures for one cell against the product's goals."""
+    ok = [r for r in rows if r["status"] == "ok"]
+    mtre = [float(r["mtre_mm"]) for r in ok]
+    figures = {
+        "trials": len(rows),
+        "success": sum(m < 2 for m in mtre),
+        "ok": len(ok),
+        "median": median(mtre),
+        "signed": [median([float(r[axis]) for r in ok]) for axis in ("error_tx", "error_ty", "error_tz")],
+        "beyond": sum(m >= 2 for m in mtre),
+        "false_failed": sum(r["status"] != "ok" and float(r["mtre_mm"]) < 1 for r in rows),
+        "evaluations": median([float(r["evaluations"]) for r in rows]),
+    }
+    if wrong:
+        figures["meets"] = figures["ok"] == 0
+    else:
+        figures["meets"] = (10 * figures["success"] >= 9 * len(rows) and figures["median"] <= 0.35
+                            and all(abs(s) <= 0.2 for s in figures["signed"]))
+    return figures
+
+
+def print_goals(base, new):
+    print("| cell | success (or wrong ok) base -> new | median mTRE of ok (mm) base -> new | "
+          "signed medians tx ty tz (mm) new | median evaluations base -> new | goals base / new |")
+    print("|---|---|---|---|---|---|")
+    totals = {side: {"trials": 0, "beyond": 0, "false_failed": 0, "wrong_ok": 0, "missed": [], "evaluations": []}
+              for side in ("base", "new")}
+    for cell in sorted(set(cells(base)) & set(cells(new))):
+        wrong = cell.startswith(("wrong-", "near-"))
+        before, after = trials(base, cell), trials(new, cell)
+        n = min(len(before), len(after))
+        figures = {"base": goals(before[:n], wrong), "new": goals(after[:n], wrong)}
+        for side, f in figures.items():
+            t = totals[side]
+            t["evaluations"] += [float(r["evaluations"]) for r in (before if side == "base" else after)[:n]]
+            if wrong:
+                t["wrong_ok"] += f["ok"]
+            else:
+                t["trials"] += n
+                t["beyond"] += f["beyond"]
+                t["false_failed"] += f["false_failed"]
+            if not f["meets"]:
+                t["missed"].append(cell)
+        b, a = figures["base"], figures["new"]
+        mark = lambda f: "meets" if f["meets"] else "**misses**"
+        if wrong:
+            print(f"| {cell} | {b['ok']} -> {a['ok']} ok | - | - | {b['evaluations']:.0f} -> {a['evaluations']:.0f} | "
+                  f"{mark(b)} / {mark(a)} |")
+        else:
+            signed = " ".join(f"{s:+.2f}" for s in a["signed"])
+            print(f"| {cell} | {b['success']}/{n} -> {a['success']}/{n} | {b['median']:.3f} -> {a['median']:.3f} | "
+                  f"{signed} | {b['evaluations']:.0f} -> {a['evaluations']:.0f} | {mark(b)} / {mark(a)} |")
+    for side in ("base", "new"):
+        t = totals[side]
+        print(f"\n{side}: right-anatomy trials {t['trials']}; ok beyond 2 mm {t['beyond']}; false failed "
+              f"{t['false_failed']} ({100 * t['false_failed'] / max(t['trials'], 1):.1f} %); wrong-anatomy ok "
+              f"{t['wrong_ok']}; median evaluations over every trial {median(t['evaluations']):.0f}; "
+              f"cells missing the goals {len(t['missed'])}: {' '.join(t['missed'])}")
+
+
 def main():
-    if len(sys.argv) != 3:
+    arguments = sys.argv[1:]
+    goals_table = "--goals" in arguments
+    arguments = [a for a in arguments if a != "--goals"]
+    if len(arguments) != 2:
         sys.exit(__doc__)
-    base, new = sys.argv[1], sys.argv[2]
+    base, new = arguments
+    if goals_table:
+        print_goals(base, new)
+        return
     every = []
     print("| cell | paired trials | ok base -> new | paired median change (mm) | largest worsening (mm) | largest gain (mm) |")
     print("|---|---|---|---|---|---|")

@@ -100,8 +100,8 @@ struct BenchRegisterOptions
   bool removeTable = false;
   int trials = 5;
   std::string size = "512x384";
-  /** One name for every 6-DOF stage, or SEARCH/REFINEMENT. */
-  std::vector<std::string> optimizers{ "nelder-mead", "cobyla", "nelder-mead/cobyla" };
+  /** One name for every 6-DOF stage, or SEARCH/REFINEMENT: the default's against the paper's. */
+  std::vector<std::string> optimizers{ DefaultOptimizers(), "nelder-mead" };
   /** Render strides compared, SEARCH/FINE (StereoRegistrationSettings::searchRenderStride,
    *  fineRenderStride), each with every optimiser. */
   std::vector<std::string> renderStrides{ "1/0" };
