@@ -19,6 +19,8 @@
 #include "xpImageRows.h"
 
 #include <chrono>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 vtkStandardNewMacro(vtkXPDRRFilter);
@@ -150,7 +152,8 @@ int vtkXPDRRFilter::RequestUpdateExtent(vtkInformation*, vtkInformationVector** 
   return 1;
 }
 
-std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* ct, double muWater, const uint8_t* keep)
+std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(
+  vtkImageData* ct, double muWater, const std::vector<uint8_t>* keepFlags)
 {
   vtkDataArray* scalars = ct ? ct->GetPointData()->GetScalars() : nullptr;
   if (!scalars || scalars->GetNumberOfComponents() != 1)
@@ -160,6 +163,12 @@ std::unique_ptr<xp::AttenuationVolume> xp::MakeAttenuationVolume(vtkImageData* c
   int dims[3];
   ct->GetDimensions(dims);
   const Eigen::Vector3i size(dims[0], dims[1], dims[2]);
+  if (keepFlags && keepFlags->size() != static_cast<size_t>(scalars->GetNumberOfTuples()))
+  {
+    throw std::invalid_argument("MakeAttenuationVolume: " + std::to_string(keepFlags->size()) +
+      " voxels to keep or leave out for a CT of " + std::to_string(scalars->GetNumberOfTuples()));
+  }
+  const uint8_t* keep = keepFlags ? keepFlags->data() : nullptr;
   // The readers keep HU as 16-bit integers or floats; other types are converted here.
   if (scalars->GetDataType() == VTK_SHORT)
   {

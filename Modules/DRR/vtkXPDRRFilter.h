@@ -24,17 +24,20 @@
 #include "xpRayCaster.h"
 #include "xpXRayView.h"
 
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 namespace xp
 {
 /**
  * The attenuation volume of a CT image (HU, any scalar type), with its index-to-LPS mapping from
  * the image's origin, spacing, DirectionMatrix and extent; where `keep` is given (one flag per
- * voxel), its 0 voxels are air. Throws xp::InputError on bad input.
+ * voxel, x fastest), its 0 voxels are air. Throws xp::InputError on bad input, and
+ * std::invalid_argument when `keep` does not hold one flag per voxel.
  */
 VTKXPDRR_EXPORT std::unique_ptr<AttenuationVolume> MakeAttenuationVolume(
-  vtkImageData* ct, double muWater, const uint8_t* keep = nullptr);
+  vtkImageData* ct, double muWater, const std::vector<uint8_t>* keep = nullptr);
 }
 
 class VTKXPDRR_EXPORT vtkXPDRRFilter : public vtkImageAlgorithm

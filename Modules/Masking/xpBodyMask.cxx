@@ -350,63 +350,82 @@ long long ClearOutsideBody(float* hu, const std::vector<uint8_t>& body)
     });
 }
 
-BodyVoxels BodyOf(vtkImageData* ct, const BodyMaskSettings& settings)
+namespace
+{
+/** SegmentBody of `hu` and the count of voxels outside the body denser than settings.tableHU. */
+template <typename HU>
+BodyVoxels SegmentedWithTable(const HU* hu, const Eigen::Vector3i& dims, const BodyMaskSettings& settings)
+{
+  const float denseHU = static_cast<float>(settings.tableHU);
+  BodyVoxels body;
+  body.inBody = SegmentBody(hu, dims, settings);
+  body.tableVoxels = CountVoxels(body.inBody.size(), [&](size_t i) { return !body.inBody[i] && static_cast<float>(hu[i]) > denseHU; });
+  return body;
+}
+
+vtkDataArray* HounsfieldScalars(vtkImageData* ct)
 {
   vtkDataArray* scalars = ct ? ct->GetPointData()->GetScalars() : nullptr;
   if (!scalars || scalars->GetNumberOfComponents() != 1)
   {
     throw InputError("CT", "needs one scalar component in HU");
   }
-  int d[3];
-  ct->GetDimensions(d);
-  const Eigen::Vector3i dims(d[0], d[1], d[2]);
-  const float denseHU = static_cast<float>(settings.tableHU);
-  BodyVoxels body;
-  // The readers keep HU as 16-bit integers or floats: segmented as they are. Any other type is
-  // read as floats first.
-  const auto segment = [&](const auto* hu)
-  {
-    body.inBody = SegmentBody(hu, dims, settings);
-    body.tableVoxels = CountVoxels(body.inBody.size(), [&](size_t i) { return !body.inBody[i] && static_cast<float>(hu[i]) > denseHU; });
-  };
-  if (scalars->GetDataType() == VTK_SHORT)
-    segment(static_cast<const int16_t*>(scalars->GetVoidPointer(0)));
-  else if (scalars->GetDataType() == VTK_FLOAT)
-    segment(static_cast<const float*>(scalars->GetVoidPointer(0)));
-  else
-  {
-    std::vector<float> hu(static_cast<size_t>(scalars->GetNumberOfTuples()));
-    for (size_t i = 0; i < hu.size(); ++i)
-      hu[i] = static_cast<float>(scalars->GetTuple1(static_cast<vtkIdType>(i)));
-    segment(hu.data());
-  }
-  return body;
+  return scalars;
 }
 
-vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings& settings, long long* removed, long long* table)
+Eigen::Vector3i DimensionsOf(vtkImageData* ct)
 {
-  const BodyVoxels inBody = BodyOf(ct, settings);
-  vtkDataArray* scalars = ct->GetPointData()->GetScalars();
-  auto body = vtkSmartPointer<vtkImageData>::New();
-  body->CopyStructure(ct);
-  body->SetDirectionMatrix(ct->GetDirectionMatrix());
-  auto values = vtkSmartPointer<vtkFloatArray>::New();
-  values->SetNumberOfTuples(scalars->GetNumberOfTuples());
-  float* to = values->GetPointer(0);
+  int d[3];
+  ct->GetDimensions(d);
+  return { d[0], d[1], d[2] };
+}
+
+/** The values of `scalars` as floats, without a virtual call per voxel for VTK's own types. */
+void CopyAsFloats(vtkDataArray* scalars, float* to)
+{
   const vtkIdType count = scalars->GetNumberOfTuples();
   switch (scalars->GetDataType())
   {
-    // The stored type's values as floats, without a virtual call per voxel.
     vtkTemplateMacro(const VTK_TT* from = static_cast<const VTK_TT*>(scalars->GetVoidPointer(0));
       ForVoxels(static_cast<size_t>(count), [&](size_t i) { to[i] = static_cast<float>(static_cast<double>(from[i])); }));
     default:
       for (vtkIdType i = 0; i < count; ++i)
         to[i] = static_cast<float>(scalars->GetTuple1(i));
   }
+}
+} // namespace
+
+BodyVoxels BodyOf(vtkImageData* ct, const BodyMaskSettings& settings)
+{
+  vtkDataArray* scalars = HounsfieldScalars(ct);
+  const Eigen::Vector3i dims = DimensionsOf(ct);
+  // The readers keep HU as 16-bit integers or floats: segmented as they are. Any other type is
+  // read as floats first.
+  if (scalars->GetDataType() == VTK_SHORT)
+    return SegmentedWithTable(static_cast<const int16_t*>(scalars->GetVoidPointer(0)), dims, settings);
+  if (scalars->GetDataType() == VTK_FLOAT)
+    return SegmentedWithTable(static_cast<const float*>(scalars->GetVoidPointer(0)), dims, settings);
+  std::vector<float> hu(static_cast<size_t>(scalars->GetNumberOfTuples()));
+  CopyAsFloats(scalars, hu.data());
+  return SegmentedWithTable(hu.data(), dims, settings);
+}
+
+vtkSmartPointer<vtkImageData> BodyOnly(vtkImageData* ct, const BodyMaskSettings& settings, long long* removed, long long* table)
+{
+  vtkDataArray* scalars = HounsfieldScalars(ct);
+  auto body = vtkSmartPointer<vtkImageData>::New();
+  body->CopyStructure(ct);
+  body->SetDirectionMatrix(ct->GetDirectionMatrix());
+  auto values = vtkSmartPointer<vtkFloatArray>::New();
+  values->SetNumberOfTuples(scalars->GetNumberOfTuples());
+  CopyAsFloats(scalars, values->GetPointer(0));
   body->GetPointData()->SetScalars(values);
+  // The float copy segmented: the 16-bit CT's own segmentation, voxel for voxel
+  // (BodyMask.A16BitCTIsSegmentedAsItsFloatCopy), with one conversion for any other type.
+  const BodyVoxels segmented = SegmentedWithTable(values->GetPointer(0), DimensionsOf(ct), settings);
   if (table)
-    *table = inBody.tableVoxels;
-  const long long cleared = ClearOutsideBody(values->GetPointer(0), inBody.inBody);
+    *table = segmented.tableVoxels;
+  const long long cleared = ClearOutsideBody(values->GetPointer(0), segmented.inBody);
   if (removed)
     *removed = cleared;
   return body;

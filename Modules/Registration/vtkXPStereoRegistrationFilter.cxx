@@ -311,7 +311,7 @@ const xp::AttenuationVolume* vtkXPStereoRegistrationFilter::BodyAttenuation(vtkI
     }
     const double* spacing = ct->GetSpacing();
     this->TableCM3 = static_cast<double>(body.tableVoxels) * std::abs(spacing[0] * spacing[1] * spacing[2]) / 1000.0;
-    this->BodyVolume = body.tableVoxels > 0 ? xp::MakeAttenuationVolume(ct, this->MuWater, body.inBody.data()) : nullptr;
+    this->BodyVolume = body.tableVoxels > 0 ? xp::MakeAttenuationVolume(ct, this->MuWater, &body.inBody) : nullptr;
     this->BodySource = ct;
     this->BodyTime = ct->GetMTime();
     this->BodyMuWater = this->MuWater;

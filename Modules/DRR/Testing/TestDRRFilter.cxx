@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -225,7 +226,7 @@ TEST(vtkXPDRRFilter, VoxelsLeftOutAreTheVolumeOfACopyWithThemSetToAir)
     cleared[n] = body ? static_cast<float>(value) : -1000.0f;
   }
   ct->GetPointData()->SetScalars(hu);
-  const std::unique_ptr<xp::AttenuationVolume> kept = xp::MakeAttenuationVolume(ct, 0.02, keep.data());
+  const std::unique_ptr<xp::AttenuationVolume> kept = xp::MakeAttenuationVolume(ct, 0.02, &keep);
   const xp::AttenuationVolume copied(cleared.data(), dims, xp::IndexToPhysical(ct), 0.02);
   const std::unique_ptr<xp::AttenuationVolume> whole = xp::MakeAttenuationVolume(ct, 0.02);
   EXPECT_EQ(kept->StoredOrigin(), copied.StoredOrigin());
@@ -239,4 +240,7 @@ TEST(vtkXPDRRFilter, VoxelsLeftOutAreTheVolumeOfACopyWithThemSetToAir)
   // The table and the air's noise were left out: the whole CT's box is larger, its quantum coarser.
   EXPECT_NE(whole->PaddedDimensions(), kept->PaddedDimensions());
   EXPECT_GT(whole->Quantum(), kept->Quantum());
+  // A flag list of another size is refused, not read past its end.
+  keep.pop_back();
+  EXPECT_THROW(xp::MakeAttenuationVolume(ct, 0.02, &keep), std::invalid_argument);
 }
