@@ -241,57 +241,65 @@ void FillSliceCavities(std::vector<uint8_t>& body, const Eigen::Vector3i& d)
 }
 
 /**
- * Square in-slice dilation by `radius` voxels, separable: along the rows the OR of the row shifted
- * by each offset in the window (vectorised; the radii are a few voxels), then down the columns a
- * sliding count of the set voxels, a row of counts at a time in memory order. Slices run on all
- * threads.
+ * OR over windows of `width` consecutive elements, each element `stride` bytes of 0/1 (a voxel, or
+ * a row of them): out[i] = in[i] | ... | in[i + width - 1] for i < count; `in` holds
+ * count + width - 1 elements. By doubling: after each pass an element holds the OR of twice as
+ * many as before, so a window of w costs about log2(w) + 1 vectorised passes instead of w - 1.
+ * `a` and `b` are scratch buffers the function sizes.
+ */
+void OrWindows(const uint8_t* in, Index count, Index width, Index stride, uint8_t* out, std::vector<uint8_t>& a,
+  std::vector<uint8_t>& b)
+{
+  Index length = count + width - 1; // elements that hold a valid OR of `covered` inputs
+  a.assign(in, in + length * stride);
+  Index covered = 1;
+  while (2 * covered <= width)
+  {
+    length -= covered;
+    b.resize(static_cast<size_t>(length * stride));
+    const uint8_t* __restrict from = a.data();
+    uint8_t* __restrict to = b.data();
+    const Index shift = covered * stride, bytes = length * stride;
+    for (Index i = 0; i < bytes; ++i)
+      to[i] = from[i] | from[i + shift];
+    std::swap(a, b);
+    covered *= 2;
+  }
+  // The last pass overlaps two windows of `covered` to make one of `width`.
+  const uint8_t* __restrict from = a.data();
+  uint8_t* __restrict to = out;
+  const Index shift = (width - covered) * stride, bytes = count * stride;
+  for (Index i = 0; i < bytes; ++i)
+    to[i] = from[i] | from[i + shift];
+}
+
+/**
+ * Square in-slice dilation by `radius` voxels, separable: along each row, then down the columns
+ * (whole rows at a time), each an OR over the window (OrWindows). Slices run on all threads.
  */
 void DilateSlices(std::vector<uint8_t>& body, const Eigen::Vector3i& d, int radius)
 {
-  const Index nx = d[0], ny = d[1], slice = nx * ny, r = radius;
+  const Index nx = d[0], ny = d[1], slice = nx * ny, r = radius, width = 2 * r + 1;
   vtkSMPTools::For(Index{ 0 }, Index{ d[2] }, Index{ 1 },
     [&](Index firstSlice, Index endSlice)
     {
-      std::vector<uint8_t> copy(static_cast<size_t>(slice));
-      std::vector<int> counts(static_cast<size_t>(nx));
-      std::vector<uint8_t> row(static_cast<size_t>(nx + 2 * r), 0); // a row as 0/1, r zeros either side
+      // The slice as 0/1 with r zeros either side of each row, then with r zero rows above and
+      // below; scratch for the passes.
+      std::vector<uint8_t> row(static_cast<size_t>(nx + 2 * r), 0);
+      std::vector<uint8_t> rows(static_cast<size_t>((ny + 2 * r) * nx), 0);
+      std::vector<uint8_t> a, b;
       for (Index z = firstSlice; z < endSlice; ++z)
       {
-        uint8_t* b = body.data() + z * slice;
-        // Along each row: whether any voxel in [x - r, x + r] is set, as the OR of the row shifted
-        // by -r..r (a byte a lane: the compiler vectorises each shift's pass).
+        uint8_t* s = body.data() + z * slice;
         for (Index y = 0; y < ny; ++y)
         {
-          const uint8_t* in = b + y * nx;
-          uint8_t* out = copy.data() + y * nx;
+          const uint8_t* in = s + y * nx;
           uint8_t* padded = row.data() + r;
           for (Index x = 0; x < nx; ++x)
             padded[x] = in[x] != 0;
-          std::copy(row.begin(), row.begin() + nx, out);
-          for (Index k = 1; k <= 2 * r; ++k)
-          {
-            const uint8_t* shifted = row.data() + k;
-            for (Index x = 0; x < nx; ++x)
-              out[x] |= shifted[x];
-          }
+          OrWindows(row.data(), nx, width, 1, rows.data() + (y + r) * nx, a, b);
         }
-        // Down each column: counts over rows [y - r, y + r], one row of counts at a time.
-        std::fill(counts.begin(), counts.end(), 0);
-        for (Index y = 0; y < std::min(r, ny); ++y)
-          for (Index x = 0; x < nx; ++x)
-            counts[x] += copy[y * nx + x];
-        for (Index y = 0; y < ny; ++y)
-        {
-          if (y + r < ny)
-            for (Index x = 0; x < nx; ++x)
-              counts[x] += copy[(y + r) * nx + x];
-          if (y - r - 1 >= 0)
-            for (Index x = 0; x < nx; ++x)
-              counts[x] -= copy[(y - r - 1) * nx + x];
-          uint8_t* out = b + y * nx;
-          for (Index x = 0; x < nx; ++x)
-            out[x] = counts[x] > 0;
-        }
+        OrWindows(rows.data(), ny, width, nx, s, a, b);
       }
     });
 }
