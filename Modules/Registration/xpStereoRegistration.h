@@ -124,11 +124,12 @@ struct StereoRegistrationSettings
    *  0 = always leave them out. */
   double coverageMinExcess = 0.015;
   int maxEvaluations = 400;      ///< per 6-DOF stage
-  /** The optimiser of the coarse searches, and of the refinements and restarts (xpPoseOptimizer.h).
-   *  The searches' BOBYQA fits a quadratic to the smooth shrunk images' objective and climbs it in
-   *  half of Nelder-Mead's evaluations; the full-size objective is bumpy, and its refinement stays
-   *  Nelder-Mead (Algorithms.md, "Speed choices"). */
+  /** The coarse searches' optimiser (xpPoseOptimizer.h). BOBYQA fits a quadratic to the smooth
+   *  shrunk images' objective and climbs it in half of Nelder-Mead's evaluations (Algorithms.md,
+   *  "The searches' BOBYQA"). */
   PoseOptimizerMethod optimizer = PoseOptimizerMethod::BOBYQA;
+  /** The refinements' and restarts' optimiser: on the bumpy full-size objective Nelder-Mead ends
+   *  nearer than BOBYQA (Algorithms.md, "The refinement stays Nelder-Mead"). */
   PoseOptimizerMethod refinementOptimizer = PoseOptimizerMethod::NelderMead;
   double maxTranslation = 50.0;  ///< gate: largest correction accepted (mm)
   double maxRotation = 10.0;     ///< gate: and degrees
