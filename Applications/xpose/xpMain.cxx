@@ -90,6 +90,9 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--half-size-refinement", settings.halfSizeRefinement,
     "Before the full-size refinement, one on half-size images of the same high-passed objective (steps and stops twice "
     "the refinement's): the full-size refinement starts near its end (Algorithms.md, \"The schedule\")")->capture_default_str();
+  command->add_option("--high-pass-after-travel", settings.highPassAfterTravel,
+    "After the quarter-size travel, the half-size searches maximise the refinement's high-passed objective (--high-pass-mm) "
+    "instead of the shaded one (Algorithms.md, \"The schedule\")")->capture_default_str();
   command->add_option("--coverage-margin-mm", settings.coverageMarginMM,
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
   command->add_option("--held-out-high-pass-mm", settings.heldOutHighPassMM,

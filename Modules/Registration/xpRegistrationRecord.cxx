@@ -138,6 +138,8 @@ Json::Value ScheduleValue(const RegistrationSchedule& s)
       item["track"] = stage.track;
     if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement)
       item["stops_at_first_track_end"] = stage.stopAtFirstEnd;
+    if (stage.kind == StageKind::Search)
+      item["high_pass_mm"] = stage.highPassMM;
     if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement || stage.kind == StageKind::Restarts)
     {
       const PoseOptimizerSettings& o = stage.optimizer;
@@ -387,6 +389,8 @@ void ReadSchedule(const Fields& f, RegistrationRecord& r)
     stage.imageDivisor = item["image_divisor"].asInt();
     stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
     stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
+    // Records written before the searches could high-pass kept the shading.
+    stage.highPassMM = item["high_pass_mm"].isNumeric() ? item["high_pass_mm"].asDouble() : 0.0;
     stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;
     if (stage.kind == StageKind::Polish)
     {

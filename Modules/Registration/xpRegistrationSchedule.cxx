@@ -122,6 +122,7 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
     ScheduledStage stage = Stage(StageKind::Search, name, coarse, travels ? 0.5 * (from + to) : from, to);
     stage.track = track;
     stage.optimizer = travels ? afterTravel : search;
+    stage.highPassMM = travels && settings.highPassAfterTravel ? settings.fineHighPassMM : 0.0;
     stage.stopAtFirstEnd = track == 1;
     stages.push_back(stage);
   }
@@ -216,7 +217,14 @@ std::string DescribeSchedule(const RegistrationSchedule& schedule)
       text += line;
     }
     if (stage.kind == StageKind::Search)
+    {
       text += ", track " + std::to_string(stage.track) + (stage.stopAtFirstEnd ? ", stops at the first track's end" : "");
+      if (stage.highPassMM > 0.0)
+      {
+        std::snprintf(line, sizeof line, ", high-passed at %g mm", stage.highPassMM);
+        text += line;
+      }
+    }
     if (stage.kind == StageKind::Refinement && stage.stopAtFirstEnd)
       text += ", the second end's stops at the first's";
     if (stage.rounds > 0)

@@ -62,6 +62,9 @@ struct ScheduledStage
    *  same image size, about as high (so that the two objectives compare). The refinement: the
    *  second end's refinement stops likewise at the first end's. */
   bool stopAtFirstEnd = false;
+  /** Searches: shading wider than this removed from the DRRs and the X-rays (sd, mm on the panel,
+   *  as StereoRegistrationSettings::fineHighPassMM); 0 keeps it. */
+  double highPassMM = 0.0;
   int rounds = 0; ///< pre-alignment: most iterations; polish: rounds; restarts: how many
   double progressFrom = 0.0, progressTo = 1.0; ///< its share of the progress reported
 };

@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <utility>
 
 namespace xp
 {
@@ -816,7 +817,7 @@ public:
             this->Result.searchDisagreementMM = searchEnds.disagreement.mm;
             this->Result.searchDisagreementDegrees = searchEnds.disagreement.degrees;
             this->Result.searchObjectiveRatio = searchEnds.disagreement.objectiveRatio;
-            for (auto& [divisor, similarity] : this->Searches)
+            for (auto& [key, similarity] : this->Searches)
               this->Result.drrCount += similarity->RenderedDRRs();
           }
           break;
@@ -1054,16 +1055,18 @@ private:
     return start;
   }
 
-  /** The similarity the searches at `divisor` maximise: the masked views shrunk, every ray cast
-   *  at quarter size, the search's stride otherwise; no high-pass (the shading helps them travel). */
-  StereoSimilarity& SearchSimilarity(int divisor)
+  /** The similarity a search stage maximises: the masked views shrunk by its divisor, every ray
+   *  cast at quarter size, the search's stride otherwise; the stage's high-pass (none by default:
+   *  the shading helps them travel). */
+  StereoSimilarity& SearchSimilarity(const ScheduledStage& stage)
   {
-    std::unique_ptr<StereoSimilarity>& similarity = this->Searches[divisor];
+    const int divisor = stage.imageDivisor;
+    std::unique_ptr<StereoSimilarity>& similarity = this->Searches[{ divisor, stage.highPassMM }];
     if (!similarity)
     {
       const std::vector<RegistrationView> views = Shrunk(this->Masked, divisor);
       const AttenuationVolume& volume = this->VolumeFor(divisor);
-      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, 0.0, this->CorrelationMM });
+      similarity = this->Similarity(volume, views, { this->Settings.equalizedLevels, stage.highPassMM, this->CorrelationMM });
       if (divisor <= 2)
       {
         const int stride = this->Settings.searchRenderStride;
@@ -1086,7 +1089,7 @@ private:
     if (firstEnd)
       optimizer.stopWhen = [firstEnd, &settings](const Pose& pose, double value)
       { return Agree(pose, firstEnd->pose, settings) && value >= settings.sameOptimumObjectiveRatio * firstEnd->value; };
-    return MaximizePose(this->Traced(this->SearchSimilarity(stage.imageDivisor)), from, optimizer);
+    return MaximizePose(this->Traced(this->SearchSimilarity(stage)), from, optimizer);
   }
 
   /** The ends to refine, better first. Ends far apart matter only when both are about as good;
@@ -1374,7 +1377,8 @@ private:
   std::vector<std::vector<uint8_t>> Content; ///< each view's entropy mask AND ROI
   std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
   std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
-  std::map<int, std::unique_ptr<StereoSimilarity>> Searches; ///< by image divisor
+  /** The searches' similarities by image divisor and high-pass (ScheduledStage::highPassMM). */
+  std::map<std::pair<int, double>, std::unique_ptr<StereoSimilarity>> Searches;
   std::map<int, std::unique_ptr<StereoSimilarity>> ShrunkRefinements; ///< the refinement's objective on shrunk images, by divisor
   /** The vertex polish's last round's evaluations, where it ran: the landscape's curvature. */
   std::optional<AxisProbes> PolishProbes;

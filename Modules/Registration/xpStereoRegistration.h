@@ -114,6 +114,12 @@ struct StereoRegistrationSettings
    *  searches' objective to the refinement's is made on a quarter of the pixels, and the
    *  full-size refinement starts near its end (MakeSchedule). With a pyramid only. */
   bool halfSizeRefinement = false;
+  /** After the quarter-size travel, the half-size searches maximise the refinement's high-passed
+   *  objective (fineHighPassMM) instead of the shaded one: on X-rays whose shading the DRR does not
+   *  model (scatter, heel, a couch) the shaded objective's peak lies about a millimetre from the
+   *  refinement's, which the full-size refinement then climbs at full cost (MakeSchedule). With
+   *  quarter-size travel only: the travel keeps the shading. */
+  bool highPassAfterTravel = false;
   /** Pixels whose rays cross the body beyond the CT's end faces may see anatomy the CT does not
    *  have: leave them out (xpCTCoverage.h), with this margin (mm) for the pose still to come. */
   bool coverageMask = true;

@@ -1141,6 +1141,77 @@ TEST(RegistrationSchedule, AHalfSizeRefinementComesBeforeTheFullSizeOne)
   EXPECT_LE(evaluationsOf(halved, "fine", 1), evaluationsOf(plain, "fine", 1));
 }
 
+// --high-pass-after-travel: the half-size searches of both tracks maximise the refinement's
+// high-passed objective (its MI is far below the shaded one's, where the shading's broad levels
+// match); the quarter-size travel keeps the shading, and without the travel (no pyramid, or
+// quarter-size images too small) nothing changes. On X-rays with a ramp the DRR does not have,
+// the pose is found as near.
+TEST(RegistrationSchedule, TheHalfSizeSearchesAfterTheTravelAreHighPassed)
+{
+  xp::StereoRegistrationSettings settings;
+  settings.highPassAfterTravel = true;
+  int highPassed = 0;
+  for (const xp::ScheduledStage& stage : xp::MakeSchedule(settings, true, true, false).stages)
+  {
+    if (stage.kind != xp::StageKind::Search)
+      continue;
+    EXPECT_EQ(stage.highPassMM, stage.imageDivisor == 2 ? settings.fineHighPassMM : 0.0) << stage.name;
+    highPassed += stage.highPassMM > 0.0;
+  }
+  EXPECT_EQ(highPassed, 2) << "both tracks' half-size searches";
+  for (const auto& [pyramid, quarter] : { std::pair{ true, false }, std::pair{ false, false } })
+    for (const xp::ScheduledStage& stage : xp::MakeSchedule(settings, pyramid, quarter, false).stages)
+      EXPECT_EQ(stage.highPassMM, 0.0) << stage.name << ": no travel, no high-pass";
+  for (const xp::ScheduledStage& stage : xp::MakeSchedule({}, true, true, false).stages)
+    EXPECT_EQ(stage.highPassMM, 0.0) << stage.name << ": off by default";
+
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 512, 384);
+  for (xp::RegistrationView& item : views)
+  {
+    // A ramp of a fifth of the levels across the panel: shading the DRR does not have.
+    const int columns = item.view.Columns();
+    for (size_t i = 0; i < item.xray.size(); ++i)
+      item.xray[i] = static_cast<uint16_t>(std::min(65535.0, item.xray[i] * (0.9 + 0.2 * static_cast<double>(i % columns) / columns)));
+  }
+  const xp::StereoRegistrationResult shaded = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  const xp::StereoRegistrationResult passed =
+    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, settings);
+  ASSERT_TRUE(passed.ok) << (passed.Reasons().empty() ? "" : passed.Reasons().front());
+  EXPECT_LT((passed.misalignment.translation - truth.translation).norm(), 0.5);
+  EXPECT_NEAR(passed.misalignment.yaw, truth.yaw, 0.3);
+  const auto fineEvaluations = [](const xp::StereoRegistrationResult& r)
+  {
+    for (const xp::RegistrationStage& stage : r.stages)
+      if (stage.name == "fine")
+        return stage.evaluations;
+    return -1;
+  };
+  std::printf("full-size refinement: %d evaluations after high-passed half-size searches, %d after shaded ones\n",
+    fineEvaluations(passed), fineEvaluations(shaded));
+  EXPECT_GT(fineEvaluations(passed), 0);
+  const auto bestOf = [](const xp::StereoRegistrationResult& r, const std::string& name)
+  {
+    double best = -1.0;
+    for (const xp::RegistrationStage& stage : r.stages)
+      if (stage.name == name)
+        for (int e = stage.firstEvaluation; e < stage.firstEvaluation + stage.evaluations; ++e)
+          best = std::max(best, r.objectiveTrace.at(static_cast<size_t>(e)));
+    return best;
+  };
+  for (const std::string name : { "coarse search (quarter resolution)", "coarse search (half resolution)" })
+    std::printf("%s: best objective %.3f high-passed after the travel, %.3f shaded\n", name.c_str(), bestOf(passed, name),
+      bestOf(shaded, name));
+  EXPECT_EQ(bestOf(passed, "coarse search (quarter resolution)"), bestOf(shaded, "coarse search (quarter resolution)"))
+    << "the travel is the same";
+  EXPECT_LT(bestOf(passed, "coarse search (half resolution)"), 0.5 * bestOf(shaded, "coarse search (half resolution)"));
+  int recorded = 0;
+  for (const xp::ScheduledStage& stage : passed.schedule.stages)
+    recorded += stage.kind == xp::StageKind::Search && stage.highPassMM > 0.0;
+  EXPECT_EQ(recorded, 2) << "the result's schedule records the high-pass";
+}
+
 TEST(RegistrationSchedule, TheTraceCountsEachStagesEvaluationsAtItsSize)
 {
   Scene scene;
