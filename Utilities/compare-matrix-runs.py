@@ -63,6 +63,8 @@ def print_goals(base, new):
         wrong = cell.startswith(("wrong-", "near-"))
         before, after = trials(base, cell), trials(new, cell)
         n = min(len(before), len(after))
+        if n == 0:
+            continue  # a cell still running
         figures = {"base": goals(before[:n], wrong), "new": goals(after[:n], wrong)}
         for side, f in figures.items():
             t = totals[side]
