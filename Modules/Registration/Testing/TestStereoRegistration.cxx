@@ -1100,6 +1100,21 @@ TEST(RegistrationSchedule, TheEconomyScheduleFindsThePoseCastingFewerRays)
   EXPECT_TRUE(quarter);
 }
 
+namespace
+{
+
+/** The evaluations of a registration's stage `name` on images of 1 / `divisor` per side; -1 where
+ *  it has no such stage. */
+int EvaluationsOf(const xp::StereoRegistrationResult& result, const std::string& name, int divisor)
+{
+  for (const xp::RegistrationStage& stage : result.stages)
+    if (stage.name == name && stage.imageDivisor == divisor)
+      return stage.evaluations;
+  return -1;
+}
+
+} // namespace
+
 // --half-size-refinement: a refinement at half size on the refinement's objective, then the
 // full-size one from its end, which has no more to climb (on this scene the searches end near the
 // peak; on the pelvis it took half the evaluations: Algorithms.md); the pose as near the truth.
@@ -1127,18 +1142,11 @@ TEST(RegistrationSchedule, AHalfSizeRefinementComesBeforeTheFullSizeOne)
   ASSERT_TRUE(halved.ok) << (halved.Reasons().empty() ? "" : halved.Reasons().front());
   EXPECT_LT((halved.misalignment.translation - truth.translation).norm(), 0.5);
   EXPECT_NEAR(halved.misalignment.yaw, truth.yaw, 0.3);
-  const auto evaluationsOf = [](const xp::StereoRegistrationResult& r, const std::string& name, int divisor)
-  {
-    for (const xp::RegistrationStage& stage : r.stages)
-      if (stage.name == name && stage.imageDivisor == divisor)
-        return stage.evaluations;
-    return -1;
-  };
-  EXPECT_GT(evaluationsOf(halved, "fine (half resolution)", 2), 0);
-  EXPECT_EQ(evaluationsOf(plain, "fine (half resolution)", 2), -1);
-  std::printf("full-size refinement: %d evaluations after the half-size one, %d alone\n", evaluationsOf(halved, "fine", 1),
-    evaluationsOf(plain, "fine", 1));
-  EXPECT_LE(evaluationsOf(halved, "fine", 1), evaluationsOf(plain, "fine", 1));
+  EXPECT_GT(EvaluationsOf(halved, "fine (half resolution)", 2), 0);
+  EXPECT_EQ(EvaluationsOf(plain, "fine (half resolution)", 2), -1);
+  std::printf("full-size refinement: %d evaluations after the half-size one, %d alone\n", EvaluationsOf(halved, "fine", 1),
+    EvaluationsOf(plain, "fine", 1));
+  EXPECT_LE(EvaluationsOf(halved, "fine", 1), EvaluationsOf(plain, "fine", 1));
 }
 
 // --high-pass-after-travel: the half-size searches of both tracks maximise the refinement's
@@ -1181,16 +1189,9 @@ TEST(RegistrationSchedule, TheHalfSizeSearchesAfterTheTravelAreHighPassed)
   ASSERT_TRUE(passed.ok) << (passed.Reasons().empty() ? "" : passed.Reasons().front());
   EXPECT_LT((passed.misalignment.translation - truth.translation).norm(), 0.5);
   EXPECT_NEAR(passed.misalignment.yaw, truth.yaw, 0.3);
-  const auto fineEvaluations = [](const xp::StereoRegistrationResult& r)
-  {
-    for (const xp::RegistrationStage& stage : r.stages)
-      if (stage.name == "fine")
-        return stage.evaluations;
-    return -1;
-  };
   std::printf("full-size refinement: %d evaluations after high-passed half-size searches, %d after shaded ones\n",
-    fineEvaluations(passed), fineEvaluations(shaded));
-  EXPECT_GT(fineEvaluations(passed), 0);
+    EvaluationsOf(passed, "fine", 1), EvaluationsOf(shaded, "fine", 1));
+  EXPECT_GT(EvaluationsOf(passed, "fine", 1), 0);
   const auto bestOf = [](const xp::StereoRegistrationResult& r, const std::string& name)
   {
     double best = -1.0;
