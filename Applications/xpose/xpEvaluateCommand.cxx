@@ -56,6 +56,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"registration_off\": \"" << Joined(o.registrationOff) << "\""
        << ",\n  \"optimizer\": \"" << o.optimizer << "\""
        << ",\n  \"xray_smoothing\": " << o.settings.xraySmoothingPerVoxel
+       << ",\n  \"xray_noise_levels\": " << o.settings.xrayNoiseLevels
        << ",\n  \"fine_render_stride\": " << o.settings.fineRenderStride
        << ",\n  \"search_render_stride\": " << o.settings.searchRenderStride
        << ",\n  \"quarter_size_travel\": " << (o.settings.quarterSizeTravel ? "true" : "false")

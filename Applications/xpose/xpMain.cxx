@@ -67,6 +67,9 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--xray-smoothing", settings.xraySmoothingPerVoxel,
     "Each X-ray is smoothed by a Gaussian of this sd at the isocentre, in the CT's finest voxel spacings "
     "(0.41: the detail a DRR of that CT holds; 0: off)")->capture_default_str();
+  command->add_option("--xray-noise-levels", settings.xrayNoiseLevels,
+    "... and a noisy X-ray more, up to twice that sd, until the noise of its ranks would be this many of their 4096 levels "
+    "(result.json xray_rank_noise; 0: the CT's sd alone)")->capture_default_str();
   command->add_option("--fine-render-stride", settings.fineRenderStride,
     "The refinement casts the DRR's rays on every N-th pixel of each row and column and interpolates the rest "
     "(0: per panel axis, 2 where two pixels at the isocentre span at most the CT's voxel spacing along that axis, else 1)")

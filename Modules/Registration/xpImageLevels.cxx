@@ -99,6 +99,40 @@ std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const 
   return out;
 }
 
+namespace
+{
+
+/** |pixel - the mean of its four neighbours| at an interior pixel i of a columns-wide image. */
+float NeighbourDifference(const std::vector<uint16_t>& image, size_t i, int columns)
+{
+  const double neighbours = 0.25 * (image[i - 1] + image[i + 1] + image[i - columns] + image[i + columns]);
+  return static_cast<float>(std::abs(image[i] - neighbours));
+}
+
+/** The median |difference| of white noise of sd s is 0.6745 x sqrt(1.25) s: 1.25 s^2 is the
+ *  variance of a pixel less the mean of four independent neighbours. */
+const double MedianDifferencePerSigma = 0.6745 * std::sqrt(1.25);
+
+} // namespace
+
+double RankNoiseLevels(const std::vector<uint16_t>& image, int columns, int rows, const std::vector<uint8_t>& mask)
+{
+  const std::vector<uint16_t> ranks = EqualizedLevels(image, mask);
+  std::vector<float> differences;
+  differences.reserve(ranks.size());
+  for (int r = 1; r + 1 < rows; ++r)
+    for (int c = 1; c + 1 < columns; ++c)
+    {
+      const size_t i = static_cast<size_t>(r) * columns + c;
+      if (mask.empty() || mask[i])
+        differences.push_back(NeighbourDifference(ranks, i, columns));
+    }
+  if (differences.empty())
+    return 0.0;
+  std::nth_element(differences.begin(), differences.begin() + differences.size() / 2, differences.end());
+  return differences[differences.size() / 2] / MedianDifferencePerSigma;
+}
+
 std::vector<uint16_t> NoiseScaledLevels(const std::vector<uint16_t>& image, int columns, int rows,
   const std::vector<uint8_t>& mask, double levelsPerSigma, double minSigma)
 {
@@ -114,11 +148,8 @@ std::vector<uint16_t> NoiseScaledLevels(const std::vector<uint16_t>& image, int 
       const size_t i = static_cast<size_t>(r) * columns + c;
       if (!mask.empty() && !mask[i])
         continue;
-      const double neighbours = 0.25 * (image[i - 1] + image[i + 1] + image[i - columns] + image[i + columns]);
-      differences[std::min(bands - 1, static_cast<int>(image[i] / bandWidth))].push_back(
-        static_cast<float>(std::abs(image[i] - neighbours)));
+      differences[std::min(bands - 1, static_cast<int>(image[i] / bandWidth))].push_back(NeighbourDifference(image, i, columns));
     }
-  // Median |difference| of white noise of sd s: 0.6745 x sqrt(1.25) s.
   std::vector<double> sigma(bands, -1.0);
   for (int b = 0; b < bands; ++b)
   {
@@ -126,7 +157,7 @@ std::vector<uint16_t> NoiseScaledLevels(const std::vector<uint16_t>& image, int 
     if (d.size() < 50)
       continue;
     std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-    sigma[b] = std::max(minSigma, d[d.size() / 2] / (0.6745 * std::sqrt(1.25)));
+    sigma[b] = std::max(minSigma, d[d.size() / 2] / MedianDifferencePerSigma);
   }
   // Bands with too few pixels take their nearest measured neighbour's sd.
   for (int b = 0; b < bands; ++b)

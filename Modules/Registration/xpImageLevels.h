@@ -69,6 +69,16 @@ VTKXPREGISTRATION_EXPORT std::vector<uint16_t> GaussianSmoothed(
 VTKXPREGISTRATION_EXPORT std::vector<uint16_t> EqualizedLevels(const std::vector<uint16_t>& image, const std::vector<uint8_t>& mask);
 
 /**
+ * The noise sd of a columns x rows image's ranks (EqualizedLevels over the valid pixels), in
+ * levels of RankLevels: from each valid pixel's difference to the mean of its four neighbours, the
+ * median absolute one (edges do not count), scaled to the sd of white noise. Ranks make it the
+ * noise against the image's own contrast whatever its grey-level mapping: a thick body's starved
+ * interior, where few levels carry the anatomy, reads noisier than the same photons over a thin
+ * one. 0 without interior valid pixels.
+ */
+VTKXPREGISTRATION_EXPORT double RankNoiseLevels(const std::vector<uint16_t>& image, int columns, int rows, const std::vector<uint8_t>& mask);
+
+/**
  * The grey levels of a columns x rows image re-spaced so that its noise has the same size at
  * every level: the noise sd at each of 64 level bands is estimated from the valid pixels'
  * differences to their four neighbours (median absolute difference: edges do not count), and a

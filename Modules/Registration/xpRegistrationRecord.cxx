@@ -564,6 +564,8 @@ std::vector<FieldCodec> AnswerCodecs()
       &R::validFraction),
     PerViewField({ "xray_smoothing_px", "per view", "px", "the Gaussian sd each X-ray was smoothed by", "where smoothed" },
       &R::xraySmoothingPixels, [](const R& r) { return !r.xraySmoothingPixels.empty(); }),
+    PerViewField({ "xray_rank_noise", "per view", "levels", "each X-ray's noise sd on its ranks (of 4096 levels), which sets its smoothing", "where measured" },
+      &R::xrayRankNoise, [](const R& r) { return !r.xrayRankNoise.empty(); }),
   };
 }
 
@@ -913,6 +915,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.viewResidualMM = result.viewResidualMM;
   record.validFraction = result.validFraction;
   record.xraySmoothingPixels = result.xraySmoothingPixels;
+  record.xrayRankNoise = result.xrayRankNoise;
   record.endFaces = result.endFaces;
   record.objective = result.objective;
   record.failures = result.failures;

@@ -69,6 +69,7 @@ struct RegistrationRecord
   std::vector<std::string> viewNames;
   std::vector<double> similarity, explained, uncovered, viewResidualMM, validFraction; ///< per view
   std::vector<double> xraySmoothingPixels; ///< per view: the X-ray's smoothing sd (pixels)
+  std::vector<double> xrayRankNoise; ///< per view: the X-ray's noise on its ranks (levels of 4096)
   /** Per view, when the CT coverage mask was on: the anatomy each X-ray shows beyond the CT's
    *  end faces and the faces whose rays were left out (xpCTCoverage.h). */
   std::vector<EndFaceEvidence> endFaces;

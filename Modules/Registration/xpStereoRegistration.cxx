@@ -517,6 +517,12 @@ double NeighbourNoiseShare(double sigmaPixels)
  *  are under 0.4 %): skipped. */
 constexpr double LeastSmoothingPixels = 0.3;
 
+/** A noisy X-ray is smoothed at most this many times the CT's sd
+ *  (StereoRegistrationSettings::xrayNoiseLevels): the noise's gain falls with the sd and the
+ *  anatomy's loss grows (1.2 of a voxel, three times the CT's sd, left the noisy pelvis from
+ *  plastimatch 6 of 10 `ok` at 0.43 mm; Algorithms.md). */
+constexpr double MaxNoiseSmoothing = 2.0;
+
 /** The views with each X-ray replaced by its 3x3 median (Median3x3). */
 std::vector<RegistrationView> MedianFiltered(std::vector<RegistrationView> views)
 {
@@ -532,13 +538,20 @@ std::vector<RegistrationView> MedianFiltered(std::vector<RegistrationView> views
  * scale, and the averages keep the levels between the stored ones.
  */
 std::vector<RegistrationView> SmoothedToTheCT(std::vector<RegistrationView> views, const AttenuationVolume& volume,
-  const Eigen::Vector3d& roomIsocenter, const StereoRegistrationSettings& settings, std::vector<double>& sigmas)
+  const Eigen::Vector3d& roomIsocenter, const StereoRegistrationSettings& settings, std::vector<double>& sigmas,
+  std::vector<double>& rankNoise)
 {
   for (RegistrationView& item : views)
   {
     const int columns = item.view.Columns(), rows = item.view.Rows();
-    const double sigma =
+    const double atTheCT =
       settings.xraySmoothingPerVoxel * volume.MinimumSpacing() / PixelSpacingAtIsocenter(item.view, roomIsocenter);
+    const double noise = item.xray.empty() ? 0.0 : RankNoiseLevels(item.xray, columns, rows, item.mask);
+    rankNoise.push_back(noise);
+    // A Gaussian of sd s pixels leaves 1 / (2 sqrt(pi) s) of white noise's sd.
+    const double sigma = settings.xrayNoiseLevels > 0.0
+      ? std::clamp(noise / (2.0 * std::sqrt(M_PI) * settings.xrayNoiseLevels), atTheCT, MaxNoiseSmoothing * atTheCT)
+      : atTheCT;
     if (!(sigma >= LeastSmoothingPixels && std::isfinite(sigma)) || item.xray.empty())
     {
       sigmas.push_back(0.0);
@@ -642,6 +655,8 @@ StereoRegistrationSettings ForBone(StereoRegistrationSettings settings, const At
   settings.landscapeNearDegrees = std::max(settings.landscapeNearDegrees, settings.landscapeNearMM * degreesPerMM);
   settings.entropyMask = false;
   settings.coverageMask = false;
+  // An intensifier's radiograph of a bone was calibrated with the CT's sd alone.
+  settings.xrayNoiseLevels = 0.0;
   settings.heldOutJudgesTurns = true;
   settings.minPeakMargin = settings.boneMinPeakMargin;
   // Half a bone is an end and half a shaft, which slides along itself: searched with wide steps
@@ -740,7 +755,8 @@ public:
     this->Settings = this->Result.boneOnly ? ForBone(requested, volume) : requested;
     this->UnsmoothedViews = this->Settings.medianFilter ? MedianFiltered(givenViews) : givenViews;
     this->InputViews =
-      SmoothedToTheCT(this->UnsmoothedViews, volume, roomIsocenter, this->Settings, this->Result.xraySmoothingPixels);
+      SmoothedToTheCT(this->UnsmoothedViews, volume, roomIsocenter, this->Settings, this->Result.xraySmoothingPixels,
+        this->Result.xrayRankNoise);
     if (this->Result.boneOnly)
     {
       this->Isocenter = MisalignedCTToRoom(plannedCTToRoom, requested.initialPose, roomIsocenter) * volume.IndexToCT() *

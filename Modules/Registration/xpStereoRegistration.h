@@ -42,6 +42,13 @@ struct StereoRegistrationSettings
    *  the registration: on a thick body's starved interior it drowned what the masks keep and
    *  moved the pose (Algorithms.md). 0 = off. */
   double xraySmoothingPerVoxel = 0.41;
+  /** ... and more where the X-ray is noisy: until the noise of its ranks (RankNoiseLevels, after
+   *  the median) would be down to this many of their 4096 levels, up to twice the sd above. A
+   *  Gaussian of sd s pixels leaves 1 / (2 sqrt(pi) s) of white noise. Read noise on a thick
+   *  body's starved interior left the held-out peak too flat to pass the gate and some results
+   *  millimetres off (Algorithms.md, "A verdict...", 10); the CT's sd alone suits X-rays whose
+   *  noise is finer than their anatomy. 0 = the CT's sd alone. */
+  double xrayNoiseLevels = 20.0;
   /** Register the X-rays' ranks with the open field bright (RankedXRays in the .cxx): every
    *  later step sees the same image whatever the X-ray's bit depth and grey-level mapping. */
   bool rankedXRays = true;
@@ -270,6 +277,7 @@ struct StereoRegistrationResult
   std::vector<double> halvesApartMM;     ///< per view: its halves' 2D registrations apart (mm at the isocentre)
   std::vector<double> validFraction;     ///< of each mask
   std::vector<double> xraySmoothingPixels; ///< each X-ray's smoothing sd (pixels; 0: none)
+  std::vector<double> xrayRankNoise; ///< each X-ray's noise on its ranks before the smoothing (RankNoiseLevels, of 4096 levels)
   /** Per view: the median distance from the DRR's edges at the result to the X-ray's nearest edge,
    *  within the held-out region (mm at the isocentre; -1 where either has none), and the same
    *  with the DRR's edges moved EdgeShiftMM: the chance level (xpEdgeAgreement.h). */

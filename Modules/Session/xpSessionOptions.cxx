@@ -39,6 +39,7 @@ void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
   CheckLimit(settings.maxEvaluations, 10, 100000, "--max-evaluations");
   CheckLimit(settings.fineHighPassMM, 0.0, 500.0, "--high-pass-mm");
   CheckLimit(settings.xraySmoothingPerVoxel, 0.0, 10.0, "--xray-smoothing");
+  CheckLimit(settings.xrayNoiseLevels, 0.0, 4096.0, "--xray-noise-levels");
   CheckLimit(settings.fineRenderStride, 0, 8, "--fine-render-stride");
   CheckLimit(settings.searchRenderStride, 0, 8, "--search-render-stride");
   CheckLimit(settings.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");

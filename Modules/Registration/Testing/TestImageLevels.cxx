@@ -202,3 +202,62 @@ TEST(MaskedLowPass, RemovesARampKeepsASpikeAndEqualsSubtractLowPassOnReuse)
   EXPECT_GT(spiky[static_cast<size_t>(32) * columns + 20], 95.0f);
   EXPECT_NEAR(spiky[static_cast<size_t>(10) * columns + 10], 0.0f, 1.0f);
 }
+
+namespace
+{
+
+/** A columns x rows ramp along the rows, `perColumn` grey values a column from 1000, with white
+ *  noise of sd `noise` (seeded). */
+std::vector<uint16_t> NoisyRamp(int columns, int rows, double perColumn, double noise, unsigned seed)
+{
+  std::mt19937 random(seed);
+  std::normal_distribution<double> gaussian(0.0, noise);
+  std::vector<uint16_t> image(static_cast<size_t>(columns) * rows);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+      image[static_cast<size_t>(r) * columns + c] =
+        static_cast<uint16_t>(std::clamp(std::lround(1000.0 + perColumn * c + gaussian(random)), 0L, 65535L));
+  return image;
+}
+
+} // namespace
+
+// The noise of an image's ranks is measured against its own contrast: white noise of sd 20 on a
+// ramp 10 grey values a column wide (2 550 over 256 columns) is 20 / 2 550 of the ranks' 4 096
+// levels; the same noise on half the contrast twice that; a monotone remapping (a log, as a
+// workstation writes) changes nothing; a clean ramp reads next to none, and the mask decides
+// which pixels count. A scale or sign slip in the estimator (the four neighbours' sqrt(1.25), the
+// median's 0.6745) moves the first figure by 12 % or more.
+TEST(RankNoiseLevels, MeasuresTheNoiseAgainstTheImagesOwnContrast)
+{
+  const int columns = 256, rows = 128;
+  const std::vector<uint8_t> all;
+  const double noisy = xp::RankNoiseLevels(NoisyRamp(columns, rows, 10.0, 20.0, 3), columns, rows, all);
+  EXPECT_NEAR(noisy, 4095.0 * 20.0 / 2550.0, 0.08 * 4095.0 * 20.0 / 2550.0);
+  const double halfContrast = xp::RankNoiseLevels(NoisyRamp(columns, rows, 5.0, 20.0, 3), columns, rows, all);
+  EXPECT_GT(halfContrast / noisy, 1.7);
+  EXPECT_LT(halfContrast / noisy, 2.1);
+
+  std::vector<uint16_t> logged = NoisyRamp(columns, rows, 10.0, 20.0, 3);
+  for (uint16_t& value : logged)
+    value = static_cast<uint16_t>(std::lround(6000.0 * std::log(value)));
+  EXPECT_NEAR(xp::RankNoiseLevels(logged, columns, rows, all), noisy, 0.03 * noisy);
+
+  const std::vector<uint16_t> clean = NoisyRamp(columns, rows, 10.0, 0.0, 3);
+  EXPECT_LT(xp::RankNoiseLevels(clean, columns, rows, all), 1.0);
+  // The left half clean, the right half noisy: only the pixels the mask keeps count.
+  std::vector<uint16_t> halves = clean;
+  const std::vector<uint16_t> noise = NoisyRamp(columns, rows, 10.0, 20.0, 3);
+  std::vector<uint8_t> left(halves.size(), 0), right(halves.size(), 0);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+    {
+      const size_t i = static_cast<size_t>(r) * columns + c;
+      (c < columns / 2 ? left : right)[i] = 1;
+      if (c >= columns / 2)
+        halves[i] = noise[i];
+    }
+  EXPECT_LT(xp::RankNoiseLevels(halves, columns, rows, left), 1.0);
+  EXPECT_GT(xp::RankNoiseLevels(halves, columns, rows, right), 0.5 * noisy);
+  EXPECT_EQ(xp::RankNoiseLevels(std::vector<uint16_t>(4, 7), 2, 2, all), 0.0); // no interior pixel
+}

@@ -27,6 +27,7 @@ xp::RegistrationRecord FailedRecord()
   result.viewResidualMM = { 0.02, 0.4 };
   result.validFraction = { 0.45, 0.5 };
   result.xraySmoothingPixels = { 0.71, 0.0 };
+  result.xrayRankNoise = { 38.5, 12.25 };
   result.endFaces.resize(2);
   result.endFaces[1].excess[0] = 0.25;
   result.endFaces[1].facesToLeaveOut = xp::FirstSliceFace;
@@ -108,6 +109,7 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_EQ(read.explained, written.explained);
   EXPECT_EQ(read.viewResidualMM, written.viewResidualMM);
   EXPECT_EQ(read.xraySmoothingPixels, written.xraySmoothingPixels);
+  EXPECT_EQ(read.xrayRankNoise, written.xrayRankNoise);
   ASSERT_EQ(read.endFaces.size(), 2u);
   EXPECT_EQ(read.endFaces[0].facesToLeaveOut, 0);
   EXPECT_EQ(read.endFaces[1].facesToLeaveOut, xp::FirstSliceFace) << "the right face, not the other";

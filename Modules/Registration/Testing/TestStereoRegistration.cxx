@@ -1307,6 +1307,7 @@ TEST(StereoRegistration, SmoothsEachXRayToTheCTsVoxelAtTheIsocentre)
   const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 128, 96);
   xp::StereoRegistrationSettings settings;
   settings.xraySmoothingPerVoxel = 0.6;
+  settings.xrayNoiseLevels = 0.0; // the CT's sd alone
   const xp::StereoRegistrationResult result =
     xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, settings);
   ASSERT_EQ(result.xraySmoothingPixels.size(), 2u);
@@ -1320,6 +1321,51 @@ TEST(StereoRegistration, SmoothsEachXRayToTheCTsVoxelAtTheIsocentre)
   const xp::StereoRegistrationResult unsmoothed =
     xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, settings);
   EXPECT_EQ(unsmoothed.xraySmoothingPixels, std::vector<double>(2, 0.0));
+}
+
+TEST(StereoRegistration, SmoothsANoisyXRayMoreUpToTwiceTheCTsSD)
+{
+  // Each view's sd is its ranks' noise over 2 sqrt(pi) times the target, no less than the CT's sd
+  // and no more than twice it. Read noise of 200 grey values added to one view raises its noise
+  // and its sd and leaves the other view's as they were; a target 100 times tighter takes the
+  // noisy view to the cap, and no target leaves both at the CT's sd.
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("2,-1,1,0.5,0,-0.5", "truth");
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 128, 96);
+  std::mt19937 random(9);
+  std::normal_distribution<double> gaussian(0.0, 200.0);
+  std::vector<xp::RegistrationView> noisy = views;
+  for (uint16_t& value : noisy[1].xray)
+    value = static_cast<uint16_t>(std::clamp(std::lround(value + gaussian(random)), 0L, 4095L));
+  xp::StereoRegistrationSettings settings;
+  const double atTheCT = settings.xraySmoothingPerVoxel * 2.0 / xp::PixelSpacingAtIsocenter(views[0].view, Eigen::Vector3d::Zero());
+  const auto register_ = [&](const std::vector<xp::RegistrationView>& given)
+  {
+    const xp::StereoRegistrationResult result =
+      xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), given, settings);
+    EXPECT_EQ(result.xraySmoothingPixels.size(), 2u);
+    EXPECT_EQ(result.xrayRankNoise.size(), 2u);
+    for (size_t v = 0; v < result.xrayRankNoise.size() && v < result.xraySmoothingPixels.size(); ++v)
+    {
+      const double asked = settings.xrayNoiseLevels > 0.0
+        ? result.xrayRankNoise[v] / (2.0 * std::sqrt(M_PI) * settings.xrayNoiseLevels)
+        : 0.0;
+      EXPECT_NEAR(result.xraySmoothingPixels[v], std::clamp(asked, atTheCT, 2.0 * atTheCT), 1e-9) << v;
+    }
+    return result;
+  };
+  const xp::StereoRegistrationResult clean = register_(views);
+  const xp::StereoRegistrationResult result = register_(noisy);
+  ASSERT_EQ(result.xrayRankNoise.size(), 2u);
+  ASSERT_EQ(clean.xrayRankNoise.size(), 2u);
+  EXPECT_EQ(result.xrayRankNoise[0], clean.xrayRankNoise[0]);
+  EXPECT_EQ(result.xraySmoothingPixels[0], clean.xraySmoothingPixels[0]);
+  EXPECT_GT(result.xrayRankNoise[1], 2.0 * clean.xrayRankNoise[1]);
+  EXPECT_GT(result.xraySmoothingPixels[1], 1.2 * clean.xraySmoothingPixels[1]);
+  settings.xrayNoiseLevels /= 100.0;
+  EXPECT_NEAR(register_(noisy).xraySmoothingPixels[1], 2.0 * atTheCT, 1e-9);
+  settings.xrayNoiseLevels = 0.0;
+  EXPECT_EQ(register_(noisy).xraySmoothingPixels, std::vector<double>(2, atTheCT));
 }
 
 TEST(StereoRegistrationAcceptance, UpTo10mmAnd3DegreesAllCasesAccurate)
