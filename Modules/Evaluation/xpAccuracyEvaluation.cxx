@@ -88,6 +88,7 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
   r.peakLeads = result.peakLeads;
   r.edgeMM = result.edgeDistanceMM;
   r.edgeMovedMM = result.edgeDistanceShiftedMM;
+  r.xrayRankNoise = result.xrayRankNoise;
   if (result.table)
     r.table = result.table->keptTable ? "ct" : "body_only";
   r.uncertaintyMM = std::max({ result.uncertainty[0], result.uncertainty[1], result.uncertainty[2] });

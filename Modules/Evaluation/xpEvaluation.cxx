@@ -119,7 +119,7 @@ std::string TrialCSVHeader()
     header += std::string(",error_") + axis;
   return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
                   "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
-                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,edge_mm,edge_moved_mm,table,reasons";
+                  "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,edge_mm,edge_moved_mm,xray_rank_noise,table,reasons";
 }
 
 std::string TrialCSVRow(const TrialRecord& r)
@@ -143,7 +143,7 @@ std::string TrialCSVRow(const TrialRecord& r)
   for (size_t k = 0; k < r.peakLeads.size(); ++k)
     row << (k ? " " : "") << r.peakLeads[k];
   // Per view, space-separated (a registration that ended early has none).
-  for (const std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM })
+  for (const std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM, &r.xrayRankNoise })
   {
     row << ',';
     for (size_t v = 0; v < perView->size(); ++v)
@@ -218,7 +218,7 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       for (double& v : r.peakLeads)
         if (!(leads >> v))
           throw std::invalid_argument("peak_leads");
-      for (std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM })
+      for (std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM, &r.xrayRankNoise })
       {
         std::istringstream values(f[i++]);
         for (double v; values >> v;)

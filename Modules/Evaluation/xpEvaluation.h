@@ -47,6 +47,9 @@ struct TrialRecord
   /** Per view: the DRR's edges' median distance to the X-ray's, and with the DRR moved 3 mm
    *  (StereoRegistrationResult::edgeDistanceMM, edgeDistanceShiftedMM). */
   std::vector<double> edgeMM, edgeMovedMM;
+  /** Per view: the X-ray's noise on its ranks, which sets its smoothing
+   *  (StereoRegistrationResult::xrayRankNoise). */
+  std::vector<double> xrayRankNoise;
   /** With chooseTable, the CT the X-rays chose: "ct" (with its table, or none found) or
    *  "body_only"; empty without. */
   std::string table;

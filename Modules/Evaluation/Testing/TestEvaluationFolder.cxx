@@ -70,6 +70,7 @@ TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadAndEdgeFigure)
     written.peakLeads[k] = (k % 2 ? 1.0 : -1.0) * (k + 1) / 100.0;
   written.edgeMM = { 0.25, 1.5 };
   written.edgeMovedMM = { 1.75, -1.0 };
+  written.xrayRankNoise = { 38.5, 81.25 };
   written.table = "body_only";
   ASSERT_EQ(std::system("rm -rf eval-leads && mkdir eval-leads"), 0);
   std::ofstream("eval-leads/trials.csv") << xp::TrialCSVHeader() << '\n' << xp::TrialCSVRow(written) << '\n';
@@ -78,6 +79,7 @@ TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadAndEdgeFigure)
   EXPECT_EQ(read[0].peakLeads, written.peakLeads);
   EXPECT_EQ(read[0].edgeMM, written.edgeMM);
   EXPECT_EQ(read[0].edgeMovedMM, written.edgeMovedMM);
+  EXPECT_EQ(read[0].xrayRankNoise, written.xrayRankNoise);
   EXPECT_EQ(read[0].table, "body_only");
   EXPECT_EQ(read[0].reasons, written.reasons);
 }
