@@ -4,12 +4,13 @@ same trials): per cell and over all right-anatomy cells, the paired change of mT
 trials `ok` in both runs, and the `ok` counts.
 
 Usage: python3 Utilities/compare-matrix-runs.py [--goals] BASE_PREFIX NEW_PREFIX
+       python3 Utilities/compare-matrix-runs.py --goals PREFIX   (one run against the goals)
   e.g. eval/s13- eval/vp1--  (each cell's trials.csv lies in PREFIX + cell name).
 --goals prints instead, per cell, both runs against the product's goals (success = ok with mTRE
 < 2 mm; a right-anatomy cell meets them with >= 9/10 success, a median mTRE of its ok trials
 <= 0.35 mm and signed medians tx ty tz within +-0.2 mm; a wrong-anatomy cell with no ok), the
 median evaluations, and the totals: ok beyond 2 mm, false failed (not ok, mTRE < 1 mm),
-wrong-anatomy ok.  Wrong-anatomy cells are those named wrong-* or near-*."""
+wrong-anatomy ok, median evaluations over every trial and over the right-anatomy ones.  Wrong-anatomy cells are those named wrong-* or near-*."""
 import csv
 import os
 import statistics
@@ -57,7 +58,8 @@ def print_goals(base, new):
     print("| cell | success (or wrong ok) base -> new | median mTRE of ok (mm) base -> new | "
           "signed medians tx ty tz (mm) new | median evaluations base -> new | goals base / new |")
     print("|---|---|---|---|---|---|")
-    totals = {side: {"trials": 0, "beyond": 0, "false_failed": 0, "wrong_ok": 0, "missed": [], "evaluations": []}
+    totals = {side: {"trials": 0, "beyond": 0, "false_failed": 0, "wrong_ok": 0, "missed": [], "evaluations": [],
+                     "right_evaluations": []}
               for side in ("base", "new")}
     for cell in sorted(set(cells(base)) & set(cells(new))):
         wrong = cell.startswith(("wrong-", "near-"))
@@ -68,7 +70,10 @@ def print_goals(base, new):
         figures = {"base": goals(before[:n], wrong), "new": goals(after[:n], wrong)}
         for side, f in figures.items():
             t = totals[side]
-            t["evaluations"] += [float(r["evaluations"]) for r in (before if side == "base" else after)[:n]]
+            counts = [float(r["evaluations"]) for r in (before if side == "base" else after)[:n]]
+            t["evaluations"] += counts
+            if not wrong:
+                t["right_evaluations"] += counts
             if wrong:
                 t["wrong_ok"] += f["ok"]
             else:
@@ -90,7 +95,8 @@ def print_goals(base, new):
         t = totals[side]
         print(f"\n{side}: right-anatomy trials {t['trials']}; ok beyond 2 mm {t['beyond']}; false failed "
               f"{t['false_failed']} ({100 * t['false_failed'] / max(t['trials'], 1):.1f} %); wrong-anatomy ok "
-              f"{t['wrong_ok']}; median evaluations over every trial {median(t['evaluations']):.0f}; "
+              f"{t['wrong_ok']}; median evaluations over every trial {median(t['evaluations']):.0f}, over the "
+              f"right-anatomy ones {median(t['right_evaluations']):.0f}; "
               f"cells missing the goals {len(t['missed'])}: {' '.join(t['missed'])}")
 
 
@@ -98,6 +104,8 @@ def main():
     arguments = sys.argv[1:]
     goals_table = "--goals" in arguments
     arguments = [a for a in arguments if a != "--goals"]
+    if goals_table and len(arguments) == 1:
+        arguments *= 2  # one run: both sides the same
     if len(arguments) != 2:
         sys.exit(__doc__)
     base, new = arguments
