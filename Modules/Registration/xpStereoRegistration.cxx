@@ -533,7 +533,9 @@ std::vector<RegistrationView> MedianFiltered(std::vector<RegistrationView> views
 
 /**
  * The X-rays smoothed to the CT's resolution (GaussianSmoothed,
- * StereoRegistrationSettings::xraySmoothingPerVoxel): what every later step sees. Ranked X-rays
+ * StereoRegistrationSettings::xraySmoothingPerVoxel), and a noisy one more, by the noise of its
+ * ranks (RankNoiseLevels, xrayNoiseLevels; `sigmas` and `rankNoise` get each view's): what every
+ * later step sees. Ranked X-rays
  * are smoothed at the largest power-of-two scale that fits 16 bits: ranks do not change with
  * scale, and the averages keep the levels between the stored ones.
  */
