@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace xp
 {
@@ -117,6 +118,9 @@ const double MedianDifferencePerSigma = 0.6745 * std::sqrt(1.25);
 
 double RankNoiseLevels(const std::vector<uint16_t>& image, int columns, int rows, const std::vector<uint8_t>& mask)
 {
+  if (columns < 0 || rows < 0 || image.size() != static_cast<size_t>(columns) * static_cast<size_t>(rows) ||
+    (!mask.empty() && mask.size() != image.size()))
+    throw std::invalid_argument("RankNoiseLevels: the image (and a mask) must hold columns x rows pixels");
   const std::vector<uint16_t> ranks = EqualizedLevels(image, mask);
   std::vector<float> differences;
   differences.reserve(ranks.size());

@@ -74,7 +74,8 @@ VTKXPREGISTRATION_EXPORT std::vector<uint16_t> EqualizedLevels(const std::vector
  * median absolute one (edges do not count), scaled to the sd of white noise. Ranks make it the
  * noise against the image's own contrast whatever its grey-level mapping: a thick body's starved
  * interior, where few levels carry the anatomy, reads noisier than the same photons over a thin
- * one. 0 without interior valid pixels.
+ * one. 0 without interior valid pixels; std::invalid_argument when the image (or a non-empty
+ * mask) does not hold columns x rows pixels.
  */
 VTKXPREGISTRATION_EXPORT double RankNoiseLevels(const std::vector<uint16_t>& image, int columns, int rows, const std::vector<uint8_t>& mask);
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 namespace
@@ -260,4 +261,7 @@ TEST(RankNoiseLevels, MeasuresTheNoiseAgainstTheImagesOwnContrast)
   EXPECT_LT(xp::RankNoiseLevels(halves, columns, rows, left), 1.0);
   EXPECT_GT(xp::RankNoiseLevels(halves, columns, rows, right), 0.5 * noisy);
   EXPECT_EQ(xp::RankNoiseLevels(std::vector<uint16_t>(4, 7), 2, 2, all), 0.0); // no interior pixel
+  // Sizes that do not match the panel are refused, not read past.
+  EXPECT_THROW(xp::RankNoiseLevels(clean, columns, rows + 1, all), std::invalid_argument);
+  EXPECT_THROW(xp::RankNoiseLevels(clean, columns, rows, std::vector<uint8_t>(10, 1)), std::invalid_argument);
 }
