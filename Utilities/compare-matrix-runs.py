@@ -42,9 +42,14 @@ def at_most(k, n, p):
     return sum(math.comb(n, i) * p ** i * (1 - p) ** (n - i) for i in range(k + 1))
 
 
+def least_success(n):
+    """The fewest successes of n trials that meet the goal of 9 in 10 (integer ceil of 0.9 n)."""
+    return (9 * n + 9) // 10
+
+
 def short_by_chance(n, p):
     """The chance that a cell of n trials succeeding with probability p misses 9 of 10."""
-    return at_most(math.ceil(0.9 * n) - 1, n, p)
+    return at_most(least_success(n) - 1, n, p)
 
 
 def goals(rows, wrong):
@@ -62,12 +67,12 @@ def goals(rows, wrong):
         "evaluations": median([float(r["evaluations"]) for r in rows]),
     }
     # Under 9/10: the chance of this few successes or fewer from a cell that meets the 90 % goal.
-    short = 10 * figures["success"] < 9 * len(rows)
+    short = figures["success"] < least_success(len(rows))
     figures["chance"] = at_most(figures["success"], len(rows), 0.9) if short and not wrong else None
     if wrong:
         figures["meets"] = figures["ok"] == 0
     else:
-        figures["meets"] = (10 * figures["success"] >= 9 * len(rows) and figures["median"] <= 0.35
+        figures["meets"] = (not short and figures["median"] <= 0.35
                             and all(abs(s) <= 0.2 for s in figures["signed"]))
     return figures
 
