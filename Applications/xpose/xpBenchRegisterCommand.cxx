@@ -56,6 +56,7 @@ struct StageFigures
 {
   int imageDivisor = 0; ///< 0: not a stage of the trace
   double evaluations = 0, drrs = 0, megaRays = 0, renderSeconds = 0, metricSeconds = 0, wallSeconds = 0, cpuSeconds = 0;
+  double modelEvaluations = 0; ///< the linearized refinement's, of modelled DRRs (nothing rendered)
 };
 
 /** What one optimiser's trials measured. */
@@ -75,6 +76,7 @@ StageFigures FiguresOf(const RegistrationStage& stage, int nextEvaluation)
   StageFigures f;
   f.imageDivisor = stage.imageDivisor;
   f.evaluations = nextEvaluation - stage.firstEvaluation;
+  f.modelEvaluations = stage.modelEvaluations;
   f.drrs = static_cast<double>(stage.cost.drrs);
   f.megaRays = stage.cost.rays / 1e6;
   f.renderSeconds = stage.cost.renderSeconds;
@@ -151,15 +153,15 @@ void PrintStages(const VariantFigures& variant, int cores)
   std::printf("\n%s: the schedule (xpRegistrationSchedule.h; result.json `schedule`)\n%s", variant.optimizer.c_str(),
     variant.schedule.c_str());
   std::printf("\n%s: medians over the trials that ran each stage\n", variant.optimizer.c_str());
-  std::printf("| stage | images | trials | evaluations | DRRs | rays (M) | DRR time (s) | metric time (s) | wall (s) | cores busy |\n"
-              "|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| stage | images | trials | evaluations | model evaluations | DRRs | rays (M) | DRR time (s) | metric time (s) | wall (s) | "
+              "cores busy |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& name : variant.stageOrder)
   {
     const std::vector<StageFigures>& all = variant.stages.at(name);
-    std::vector<double> e, d, r, render, metric, wall, busy;
+    std::vector<double> e, m, d, r, render, metric, wall, busy;
     for (const StageFigures& f : all)
     {
-      e.push_back(f.evaluations), d.push_back(f.drrs), r.push_back(f.megaRays), render.push_back(f.renderSeconds);
+      e.push_back(f.evaluations), m.push_back(f.modelEvaluations), d.push_back(f.drrs), r.push_back(f.megaRays), render.push_back(f.renderSeconds);
       metric.push_back(f.metricSeconds), wall.push_back(f.wallSeconds);
       if (f.cpuSeconds >= 0.0 && f.wallSeconds > 0.0)
         busy.push_back(f.cpuSeconds / (f.wallSeconds * cores));
@@ -169,8 +171,8 @@ void PrintStages(const VariantFigures& variant, int cores)
       std::snprintf(busyText, sizeof busyText, "%.0f %%", 100.0 * Median(busy));
     if (all.front().imageDivisor > 0)
       std::snprintf(sizeText, sizeof sizeText, "1/%d", all.front().imageDivisor);
-    std::printf("| %s | %s | %zu | %.0f | %.0f | %.2f | %.3f | %.3f | %.3f | %s |\n", name.c_str(), sizeText, all.size(), Median(e),
-      Median(d), Median(r), Median(render), Median(metric), Median(wall), busyText);
+    std::printf("| %s | %s | %zu | %.0f | %.0f | %.0f | %.2f | %.3f | %.3f | %.3f | %s |\n", name.c_str(), sizeText, all.size(), Median(e),
+      Median(m), Median(d), Median(r), Median(render), Median(metric), Median(wall), busyText);
   }
 }
 

@@ -63,6 +63,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"schedule\": \"" << ScheduleChoiceName(o.settings.schedule) << "\""
        << ",\n  \"vertex_polish_rounds\": " << o.settings.vertexPolishRounds
        << ",\n  \"half_size_refinement\": " << (o.settings.halfSizeRefinement ? "true" : "false")
+       << ",\n  \"linearized_refinement\": " << (o.settings.linearizedRefinement ? "true" : "false")
        << ",\n  \"high_pass_after_travel\": " << (o.settings.highPassAfterTravel ? "true" : "false")
        << ",\n  \"high_pass_mm\": " << o.settings.fineHighPassMM << ",\n  \"coverage_margin_mm\": " << o.settings.coverageMarginMM
        << ",\n  \"coverage_min_excess\": " << o.settings.coverageMinExcess

@@ -93,6 +93,10 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--half-size-refinement", settings.halfSizeRefinement,
     "Before the full-size refinement, one on half-size images of the same high-passed objective (steps and stops twice "
     "the refinement's): the full-size refinement starts near its end (Algorithms.md, \"The schedule\")")->capture_default_str();
+  command->add_option("--linearized-refinement", settings.linearizedRefinement,
+    "The full-size refinement climbs a first-order model of the DRRs, their slopes along the six pose parameters "
+    "rendered once a round (13 evaluations a round; false: a simplex that renders every evaluation; Algorithms.md, "
+    "\"The schedule\")")->capture_default_str();
   command->add_option("--high-pass-after-travel", settings.highPassAfterTravel,
     "After the quarter-size travel, the half-size searches maximise the refinement's high-passed objective (--high-pass-mm) "
     "instead of the shaded one (Algorithms.md, \"The schedule\")")->capture_default_str();

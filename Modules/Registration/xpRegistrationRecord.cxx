@@ -116,6 +116,8 @@ Json::Value ConvergenceValue(const RegistrationRecord& r)
     item["name"] = stage.name;
     item["first_evaluation"] = stage.firstEvaluation;
     item["evaluations"] = stage.evaluations;
+    if (stage.modelEvaluations > 0)
+      item["model_evaluations"] = stage.modelEvaluations;
     item["image_divisor"] = stage.imageDivisor;
     item["seconds"] = stage.seconds;
     stages.append(item);
@@ -138,6 +140,8 @@ Json::Value ScheduleValue(const RegistrationSchedule& s)
       item["track"] = stage.track;
     if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement)
       item["stops_at_first_track_end"] = stage.stopAtFirstEnd;
+    if (stage.kind == StageKind::Refinement)
+      item["linearized"] = stage.linearized;
     if (stage.kind == StageKind::Search)
       item["high_pass_mm"] = stage.highPassMM;
     if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement || stage.kind == StageKind::Restarts)
@@ -367,6 +371,7 @@ void ReadConvergence(const Fields& f, RegistrationRecord& r)
     RegistrationStage read{ stage["name"].asString(), stage["first_evaluation"].asInt(), stage["seconds"].asDouble() };
     read.evaluations = stage["evaluations"].isInt() ? stage["evaluations"].asInt() : 0; // absent before the schedule
     read.imageDivisor = stage["image_divisor"].isInt() ? stage["image_divisor"].asInt() : 0;
+    read.modelEvaluations = stage["model_evaluations"].isInt() ? stage["model_evaluations"].asInt() : 0;
     r.stages.push_back(read);
   }
   r.objectiveTrace = f.Numbers("convergence.objective");
@@ -389,6 +394,8 @@ void ReadSchedule(const Fields& f, RegistrationRecord& r)
     stage.imageDivisor = item["image_divisor"].asInt();
     stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
     stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
+    // Records written before the linearized refinement rendered every evaluation.
+    stage.linearized = item["linearized"].isBool() && item["linearized"].asBool();
     // Records written before the searches could high-pass kept the shading.
     stage.highPassMM = item["high_pass_mm"].isNumeric() ? item["high_pass_mm"].asDouble() : 0.0;
     stage.rounds = item["rounds"].isInt() ? item["rounds"].asInt() : 0;

@@ -132,6 +132,7 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
   // Where both searches' ends are refined, the second refinement only asks whether its end
   // climbs to another optimum: reaching the first one's answers it.
   refinement.stopAtFirstEnd = true;
+  refinement.linearized = settings.linearizedRefinement;
   if (economy)
   {
     // Fewer evaluations: both searches travel on quarter-size images (a fifth of a half-size
@@ -225,6 +226,8 @@ std::string DescribeSchedule(const RegistrationSchedule& schedule)
         text += line;
       }
     }
+    if (stage.kind == StageKind::Refinement && stage.linearized)
+      text += ", on the DRRs' slopes (13 evaluations a round)";
     if (stage.kind == StageKind::Refinement && stage.stopAtFirstEnd)
       text += ", the second end's stops at the first's";
     if (stage.rounds > 0)

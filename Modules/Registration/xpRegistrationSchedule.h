@@ -65,6 +65,10 @@ struct ScheduledStage
   /** Searches: shading wider than this removed from the DRRs and the X-rays (sd, mm on the panel,
    *  as StereoRegistrationSettings::fineHighPassMM); 0 keeps it. */
   double highPassMM = 0.0;
+  /** The refinement: each round renders the slopes of the DRRs' line integrals about its pose
+   *  and the optimiser climbs the objective of their first-order model, which renders nothing
+   *  (xpLinearizedRefinement.h); false: every evaluation renders. */
+  bool linearized = false;
   int rounds = 0; ///< pre-alignment: most iterations; polish: rounds; restarts: how many
   double progressFrom = 0.0, progressTo = 1.0; ///< its share of the progress reported
 };

@@ -4,6 +4,7 @@
 #include "xpCTCoverage.h"
 #include "xpEdgeAgreement.h"
 #include "xpError.h"
+#include "xpLinearizedRefinement.h"
 #include "xpMutualInformation.h"
 #include "xpPoseOptimizer.h"
 #include "xpQualityGate.h"
@@ -109,6 +110,8 @@ public:
     stage.evaluations = static_cast<int>(this->Objective.size()) - stage.firstEvaluation;
     this->Open = false;
   }
+  /** Evaluations of modelled DRRs in the open stage (xpLinearizedRefinement.h). */
+  void AddModelEvaluations(int count) { this->Stages.back().modelEvaluations += count; }
   double Traced(double objective)
   {
     this->Objective.push_back(objective);
@@ -1158,7 +1161,14 @@ private:
         optimizer.stopWhen = [first, &settings](const Pose& pose, double value)
         { return Agree(pose, first.pose, settings) && value >= settings.sameOptimumObjectiveRatio * first.value; };
       }
-      refined.ends.push_back(MaximizePose(this->Traced(similarity), ends[e], optimizer));
+      if (stage.linearized)
+      {
+        const LinearizedRefinementResult end = MaximizeOnLinearizedDRRs(similarity, this->Traced(similarity), ends[e], optimizer);
+        this->Trace.AddModelEvaluations(end.modelEvaluations);
+        refined.ends.push_back(end);
+      }
+      else
+        refined.ends.push_back(MaximizePose(this->Traced(similarity), ends[e], optimizer));
       this->Result.evaluations += refined.ends.back().evaluations;
     }
     this->Trace.End();

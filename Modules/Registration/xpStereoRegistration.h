@@ -121,6 +121,10 @@ struct StereoRegistrationSettings
    *  searches' objective to the refinement's is made on a quarter of the pixels, and the
    *  full-size refinement starts near its end (MakeSchedule). With a pyramid only. */
   bool halfSizeRefinement = false;
+  /** The full-size refinement climbs a first-order model of the DRRs' line integrals, their
+   *  slopes rendered once a round (xpLinearizedRefinement.h): about half the full-size
+   *  renderings of a simplex that renders every evaluation (Algorithms.md, "The schedule"). */
+  bool linearizedRefinement = true;
   /** After the quarter-size travel, the half-size searches maximise the refinement's high-passed
    *  objective (fineHighPassMM) instead of the shaded one: on X-rays whose shading the DRR does not
    *  model (scatter, heel, a couch) the shaded objective's peak lies about a millimetre from the
@@ -226,6 +230,9 @@ struct RegistrationStage
   SimilarityCost cost;  ///< its DRRs, rays, rendering and metric time
   double cpuSeconds = 0.0; ///< CPU time of the process's threads during the stage
   int evaluations = 0;   ///< its stereo similarity evaluations in the trace
+  /** The linearized refinement's evaluations of modelled DRRs (rendering nothing; not in the
+   *  trace nor in `evaluations`). */
+  int modelEvaluations = 0;
   int imageDivisor = 1;  ///< its images' size: the registration's divided by this per side
 };
 

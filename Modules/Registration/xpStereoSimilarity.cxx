@@ -221,11 +221,9 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
     [this](size_t first, size_t last)
     {
       for (size_t v = first; v < last; ++v)
-        this->Measure(v);
+        this->Measure(v, this->Projector.Integrals(v));
     });
-  double objective = 0.0;
-  for (size_t v = 0; v < this->Items.size(); ++v)
-    objective += this->CorrelationMM > 0.0 ? this->LastNCC[v] : this->LastMI[v] * this->LastMI[v];
+  const double objective = this->Objective();
   this->DRRCount += static_cast<long long>(this->Items.size());
   if (this->MeasuresOnGPU()) // the levels are fixed now: the next evaluations measure on the GPU
     this->SetUpGPUMetric();
@@ -240,12 +238,46 @@ double StereoSimilarity::Evaluate(const Pose& misalignment)
   return objective;
 }
 
-void StereoSimilarity::Measure(size_t v)
+void StereoSimilarity::Measure(size_t v, const std::vector<float>& integrals)
 {
-  const std::vector<float>& integrals = this->Projector.Integrals(v);
   this->LastMI[v] = this->MI[v]->Measure(integrals);
   if (!this->Correlation.empty())
     this->LastNCC[v] = this->Correlation[v]->Measure(integrals);
+}
+
+double StereoSimilarity::Objective() const
+{
+  double objective = 0.0;
+  for (size_t v = 0; v < this->Items.size(); ++v)
+    objective += this->CorrelationMM > 0.0 ? this->LastNCC[v] : this->LastMI[v] * this->LastMI[v];
+  return objective;
+}
+
+const std::vector<float>& StereoSimilarity::LastIntegrals(size_t v) const
+{
+  this->FetchLastDRRs();
+  return this->Projector.Integrals(v);
+}
+
+double StereoSimilarity::ObjectiveOf(const std::vector<std::vector<float>>& integrals)
+{
+  bool fits = integrals.size() == this->Items.size();
+  for (size_t v = 0; fits && v < this->Items.size(); ++v)
+    fits = integrals[v].size() == this->Items[v].xray.size();
+  if (!fits)
+    throw Error("stereo similarity", "line integrals must hold one panel per view");
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  this->FetchLastDRRs(); // the host's state stays that of LastPose, as LastIntegrals reads it
+  vtkSMPTools::For(size_t{ 0 }, this->Items.size(), size_t{ 1 },
+    [this, &integrals](size_t first, size_t last)
+    {
+      for (size_t v = first; v < last; ++v)
+        this->Measure(v, integrals[v]);
+    });
+  if (this->CostSink)
+    this->CostSink->metricSeconds += std::chrono::duration<double>(Clock::now() - start).count();
+  return this->Objective();
 }
 
 void StereoSimilarity::SetRenderStride(const RenderStride& stride)

@@ -97,6 +97,14 @@ public:
 
   /** The objective at a misalignment: sum over views of MI^2 (nats^2). Renders one DRR per view. */
   double Evaluate(const Pose& misalignment);
+  /** View v's line integrals at the last pose evaluated (the panel's pixels, 0 where masked). */
+  const std::vector<float>& LastIntegrals(size_t v) const;
+  /**
+   * The objective of given line integrals, one panel per view (LastIntegrals' layout), measured
+   * as Evaluate measures a rendering; renders nothing (xpLinearizedRefinement.h). The next
+   * Evaluate measures its own rendering again; until then the last levels are these.
+   */
+  double ObjectiveOf(const std::vector<std::vector<float>>& integrals);
 
   /** MI per view of the last evaluation. */
   const std::vector<double>& LastMutualInformation() const { return this->LastMI; }
@@ -140,8 +148,10 @@ private:
   /** After a GPU evaluation: the last pose's DRRs and levels on the host, for those who ask
    *  (once, whichever view's thread asks first). */
   void FetchLastDRRs() const;
-  /** View v's metrics of its last DRR: MI, and the correlation with a correlation objective. */
-  void Measure(size_t v);
+  /** View v's metrics of line integrals: MI, and the correlation with a correlation objective. */
+  void Measure(size_t v, const std::vector<float>& integrals);
+  /** The objective of the views' last measures. */
+  double Objective() const;
 
   const AttenuationVolume& Volume;
   Eigen::Isometry3d Planned;

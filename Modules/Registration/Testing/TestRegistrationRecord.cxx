@@ -39,6 +39,7 @@ xp::RegistrationRecord FailedRecord()
   result.evaluations = 600;
   result.stages = { { "coarse search", 0, 1.5 }, { "fine", 400, 2.25 } };
   result.stages[1].evaluations = 150;
+  result.stages[1].modelEvaluations = 420;
   result.stages[1].imageDivisor = 1;
   result.stages[0].imageDivisor = 2;
   result.schedule = xp::MakeSchedule(xp::StereoRegistrationSettings{}, true, true, false);
@@ -127,6 +128,8 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   ASSERT_EQ(read.stages.size(), 2u);
   EXPECT_EQ(read.stages[1].firstEvaluation, 400);
   EXPECT_EQ(read.stages[1].evaluations, 150);
+  EXPECT_EQ(read.stages[1].modelEvaluations, 420);
+  EXPECT_EQ(read.stages[0].modelEvaluations, 0) << "a search renders every evaluation";
   EXPECT_EQ(read.stages[0].imageDivisor, 2);
   EXPECT_EQ(read.prealignIterations, 3);
   EXPECT_EQ(read.prealignDRRs, 40);
@@ -139,6 +142,8 @@ TEST(RegistrationRecord, RoundTripsEveryField)
     EXPECT_EQ(a.imageDivisor, b.imageDivisor) << b.name;
     EXPECT_EQ(a.track, b.track) << b.name;
     EXPECT_EQ(a.stopAtFirstEnd, b.stopAtFirstEnd) << b.name;
+    EXPECT_EQ(a.linearized, b.linearized) << b.name;
+    EXPECT_EQ(a.linearized, b.kind == xp::StageKind::Refinement) << b.name << ": the default refinement is linearized";
     EXPECT_EQ(a.rounds, b.rounds) << b.name;
     if (b.kind == xp::StageKind::Search || b.kind == xp::StageKind::Refinement)
     {
