@@ -96,7 +96,7 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
   command->add_option("--linearized-refinement", settings.linearizedRefinement,
     "The full-size refinement climbs a first-order model of the DRRs, their slopes along the six pose parameters "
     "rendered once a round (13 evaluations a round; false: a simplex that renders every evaluation; Algorithms.md, "
-    "\"The schedule\")")->capture_default_str();
+    "\"The linearized refinement\")")->capture_default_str();
   command->add_option("--high-pass-after-travel", settings.highPassAfterTravel,
     "After the quarter-size travel, the half-size searches maximise the refinement's high-passed objective (--high-pass-mm) "
     "instead of the shaded one (Algorithms.md, \"The schedule\")")->capture_default_str();

@@ -123,8 +123,10 @@ struct StereoRegistrationSettings
   bool halfSizeRefinement = false;
   /** The full-size refinement climbs a first-order model of the DRRs' line integrals, their
    *  slopes rendered once a round (xpLinearizedRefinement.h): about half the full-size
-   *  renderings of a simplex that renders every evaluation (Algorithms.md, "The schedule"). */
-  bool linearizedRefinement = true;
+   *  renderings of a simplex that renders every evaluation, but on the simulator's shaded and
+   *  noisy pelvis X-rays its ends lean along ty and more of them fail the gate (Algorithms.md,
+   *  "The linearized refinement"): off. */
+  bool linearizedRefinement = false;
   /** After the quarter-size travel, the half-size searches maximise the refinement's high-passed
    *  objective (fineHighPassMM) instead of the shaded one: on X-rays whose shading the DRR does not
    *  model (scatter, heel, a couch) the shaded objective's peak lies about a millimetre from the

@@ -8,14 +8,16 @@
 # Usage: register-wall.sh CT GEOMETRY [SIZE [PRESET [REGISTER_OPTIONS...]]]
 #   one build: XPOSE=path/to/xpose (default build/bin/xpose);
 #   builds compared: BUILDS="OLD_DIR NEW_DIR" (each holding bin/xpose and lib/; the X-rays are
-#   made by the last one). SIZE 512x384, PRESET clinical by default.
+#   made by the last one); an entry DIR:OPTION[,OPTION...] adds its own register options (CLI11's
+#   --name=value form), so that one build's two settings take turns: BUILDS="build:--x=false
+#   build:--x=true". SIZE 512x384, PRESET clinical by default.
 set -euo pipefail
 ct=$1 geometry=$2 size=${3:-512x384} preset=${4:-clinical}
 shift $(($# < 4 ? $# : 4))
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 run() { # BUILD_DIR_OR_EMPTY ARGS...: xpose from a build folder, or $XPOSE
-  local dir=$1
+  local dir=${1%%:*}
   shift
   if [ -n "$dir" ]; then LD_LIBRARY_PATH="$dir/lib" "$dir/bin/xpose" "$@"; else "${XPOSE:-build/bin/xpose}" "$@"; fi
 }
@@ -27,8 +29,10 @@ for pose in $poses; do
   run "${builds[-1]}" simulate --ct "$ct" --geometry "$geometry" --pose "$pose" --preset "$preset" --out-dir "$dir/sim" > "$dir.sim.log" 2>&1
   for b in "${!builds[@]}"; do
     start=$(date +%s%N)
-    run "${builds[$b]}" register --ct "$ct" --geometry "$geometry" --xray "$dir/sim/xray_A.png" --xray "$dir/sim/xray_B.png" \
-      --size "$size" "$@" --out-dir "$dir/reg-$b" > "$dir.$b.log" 2>&1 || true
+    entry=${builds[$b]} own=()
+    [[ $entry == *:* ]] && IFS=, read -r -a own <<< "${entry#*:}"
+    run "$entry" register --ct "$ct" --geometry "$geometry" --xray "$dir/sim/xray_A.png" --xray "$dir/sim/xray_B.png" \
+      --size "$size" "$@" "${own[@]}" --out-dir "$dir/reg-$b" > "$dir.$b.log" 2>&1 || true
     end=$(date +%s%N)
     echo "$pose $b $(((end - start) / 1000000))" >> "$work/walls.txt"
   done

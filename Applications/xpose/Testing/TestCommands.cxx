@@ -1194,7 +1194,7 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
   ASSERT_EQ(code, xp::ExitOk) << out;
   for (const char* text : { "nelder-mead, strides 1/1, half travel: medians", "nelder-mead/bobyqa, strides 2/2, quarter travel: medians",
          "| coarse search", "| fine | 1/1 | 1 |", "| landscape | 1/1 | 1 |", "Variants side by side", "the schedule",
-         "refinement    fine", "on the DRRs' slopes", "| model evaluations |", "| cores busy |", "| nelder-mead, strides 1/1, half travel | ",
+         "refinement    fine", "| model evaluations |", "| cores busy |", "| nelder-mead, strides 1/1, half travel | ",
          "| nelder-mead, strides 2/2, half travel | ", "| nelder-mead/bobyqa, strides 1/1, quarter travel | ",
          "median time with the CT read (s)", "against 100 % of the CT's slices;" })
     EXPECT_NE(out.find(text), std::string::npos) << text << "\n" << out;

@@ -42,7 +42,9 @@ xp::RegistrationRecord FailedRecord()
   result.stages[1].modelEvaluations = 420;
   result.stages[1].imageDivisor = 1;
   result.stages[0].imageDivisor = 2;
-  result.schedule = xp::MakeSchedule(xp::StereoRegistrationSettings{}, true, true, false);
+  xp::StereoRegistrationSettings linearized;
+  linearized.linearizedRefinement = true;
+  result.schedule = xp::MakeSchedule(linearized, true, true, false);
   result.prealignment.iterations = 3;
   result.prealignment.drrs = 40;
   result.objectiveTrace = { 0.1, 0.3, 0.7 };
@@ -143,7 +145,7 @@ TEST(RegistrationRecord, RoundTripsEveryField)
     EXPECT_EQ(a.track, b.track) << b.name;
     EXPECT_EQ(a.stopAtFirstEnd, b.stopAtFirstEnd) << b.name;
     EXPECT_EQ(a.linearized, b.linearized) << b.name;
-    EXPECT_EQ(a.linearized, b.kind == xp::StageKind::Refinement) << b.name << ": the default refinement is linearized";
+    EXPECT_EQ(a.linearized, b.kind == xp::StageKind::Refinement) << b.name << ": the refinement's setting read back";
     EXPECT_EQ(a.rounds, b.rounds) << b.name;
     if (b.kind == xp::StageKind::Search || b.kind == xp::StageKind::Refinement)
     {
