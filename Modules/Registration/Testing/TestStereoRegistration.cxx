@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <algorithm>
 #include <map>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -1954,6 +1955,29 @@ TEST(vtkXPStereoRegistrationFilter, ChoosesTheCTWithOrWithoutItsTableByTheXRays)
   }
 }
 
+namespace
+{
+
+/** The refinement's objective (ranks, high-passed at 5 mm) on kV X-rays of the scene at `truth`,
+ *  and a refinement's steps and stops on the scene's 2 mm voxels. */
+std::unique_ptr<xp::StereoSimilarity> RefinementObjective(const Scene& scene, const xp::Pose& truth, unsigned seed)
+{
+  return std::make_unique<xp::StereoSimilarity>(scene.volume, scene.planned, Eigen::Vector3d::Zero(),
+    SimulateKV(scene, truth, seed, 256, 192), 32, xp::SimilarityLevels{ true, 5.0, 0.0 });
+}
+
+xp::PoseOptimizerSettings RefinementSteps()
+{
+  xp::PoseOptimizerSettings settings;
+  settings.initialStepMM = 0.5;
+  settings.initialStepDegrees = 0.3;
+  settings.toleranceMM = 0.05;
+  settings.toleranceDegrees = 0.03;
+  return settings;
+}
+
+} // namespace
+
 // The linearized refinement (xpLinearizedRefinement.h) on the refinement's own objective (ranks,
 // high-passed) from 0.6 mm and 0.4 degree off on every axis: it ends where a simplex that
 // renders every evaluation ends, within its stops, on a sixth of the renderings or fewer, every
@@ -1963,13 +1987,9 @@ TEST(LinearizedRefinement, EndsWhereTheRenderingSimplexEnds)
 {
   Scene scene;
   const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
-  xp::StereoSimilarity similarity(scene.volume, scene.planned, Eigen::Vector3d::Zero(), SimulateKV(scene, truth, 3, 256, 192),
-    32, xp::SimilarityLevels{ true, 5.0, 0.0 });
-  xp::PoseOptimizerSettings settings;
-  settings.initialStepMM = 0.5;
-  settings.initialStepDegrees = 0.3;
-  settings.toleranceMM = 0.05;
-  settings.toleranceDegrees = 0.03;
+  const std::unique_ptr<xp::StereoSimilarity> objective = RefinementObjective(scene, truth, 3);
+  xp::StereoSimilarity& similarity = *objective;
+  xp::PoseOptimizerSettings settings = RefinementSteps();
   settings.maxEvaluations = 400;
   settings.maxRestarts = 0;
   const xp::Pose start = xp::Pose::Parse("4.6,-3.6,2.6,1.9,-1.4,2.4", "start");
@@ -2013,13 +2033,9 @@ TEST(LinearizedRefinement, StopsAtTheTargetAndStaysWithinItsTrustRegion)
 {
   Scene scene;
   const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
-  xp::StereoSimilarity similarity(scene.volume, scene.planned, Eigen::Vector3d::Zero(), SimulateKV(scene, truth, 4, 256, 192),
-    32, xp::SimilarityLevels{ true, 5.0, 0.0 });
-  xp::PoseOptimizerSettings settings;
-  settings.initialStepMM = 0.5;
-  settings.initialStepDegrees = 0.3;
-  settings.toleranceMM = 0.05;
-  settings.toleranceDegrees = 0.03;
+  const std::unique_ptr<xp::StereoSimilarity> objective = RefinementObjective(scene, truth, 4);
+  xp::StereoSimilarity& similarity = *objective;
+  xp::PoseOptimizerSettings settings = RefinementSteps();
   const xp::Pose start = xp::Pose::Parse("6,-3,2,1.5,-1,2", "start");
   std::vector<xp::Pose> poses;
   const auto evaluate = [&](const xp::Pose& p)
