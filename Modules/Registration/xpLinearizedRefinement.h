@@ -9,11 +9,11 @@
  * half a degree the first-order model I(p + d) = I(p) + sum_k d_k dI/dp_k follows them (the
  * slopes by central differences of the refinement's own first steps), and the objective of the
  * modelled integrals (MI of their ranks, high-passed, as StereoSimilarity measures a rendering)
- * costs a tenth of a rendering. A round renders 12 poses (a step either side along each
+ * casts no ray. A round renders 12 poses (a step either side along each
  * parameter) and measures each of them like any evaluation; the simplex then climbs the model
  * within `trustSteps` of those steps around the pose, and the true objective is measured where
  * it ends: a round that does not improve it, or moves every parameter less than the stops,
- * ends the refinement. Algorithms.md, "The schedule".
+ * ends the refinement. Off by default: Algorithms.md, "The linearized refinement".
  */
 #ifndef xpLinearizedRefinement_h
 #define xpLinearizedRefinement_h
