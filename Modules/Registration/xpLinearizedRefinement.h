@@ -5,11 +5,11 @@
  *        climbs the objective of the modelled DRRs, which renders nothing, and the round ends
  *        where the true objective is measured again.
  *
- * Near the optimum a DRR's line integrals move smoothly with the pose: within a millimetre and
- * half a degree the first-order model I(p + d) = I(p) + sum_k d_k dI/dp_k follows them (the
- * slopes by central differences of the refinement's own first steps), and the objective of the
- * modelled integrals (MI of their ranks, high-passed, as StereoSimilarity measures a rendering)
- * casts no ray. A round renders 12 poses (a step either side along each
+ * Near the optimum a DRR's line integrals move smoothly with the pose, and the first-order model
+ * I(p + d) = I(p) + sum_k d_k dI/dp_k (the slopes by central differences of the refinement's own
+ * first steps) is trusted within `trustSteps` of those steps; the objective of the modelled
+ * integrals (MI of their ranks, high-passed, as StereoSimilarity measures a rendering) casts no
+ * ray. A round renders 12 poses (a step either side along each
  * parameter) and measures each of them like any evaluation; the simplex then climbs the model
  * within `trustSteps` of those steps around the pose, and the true objective is measured where
  * it ends: a round that does not improve it, or moves every parameter less than the stops,

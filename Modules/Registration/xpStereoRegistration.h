@@ -122,10 +122,10 @@ struct StereoRegistrationSettings
    *  full-size refinement starts near its end (MakeSchedule). With a pyramid only. */
   bool halfSizeRefinement = false;
   /** The full-size refinement climbs a first-order model of the DRRs' line integrals, their
-   *  slopes rendered once a round (xpLinearizedRefinement.h): about half the full-size
-   *  renderings of a simplex that renders every evaluation, but on the simulator's shaded and
-   *  noisy pelvis X-rays its ends lean along ty and more of them fail the gate (Algorithms.md,
-   *  "The linearized refinement"): off. */
+   *  slopes rendered once a round (xpLinearizedRefinement.h): fewer full-size renderings than a
+   *  simplex that renders every evaluation where that one creeps (the pelvis), more where it is
+   *  short (the thorax); on the simulator's shaded and noisy pelvis X-rays its ends lean along ty
+   *  and more of them fail the gate (Algorithms.md, "The linearized refinement"): off. */
   bool linearizedRefinement = false;
   /** After the quarter-size travel, the half-size searches maximise the refinement's high-passed
    *  objective (fineHighPassMM) instead of the shaded one: on X-rays whose shading the DRR does not
