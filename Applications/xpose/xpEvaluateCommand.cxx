@@ -58,6 +58,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"xray_smoothing\": " << o.settings.xraySmoothingPerVoxel
        << ",\n  \"xray_noise_levels\": " << o.settings.xrayNoiseLevels
        << ",\n  \"fine_render_stride\": " << o.settings.fineRenderStride
+       << ",\n  \"fine_plane_step\": " << o.settings.finePlaneStep
        << ",\n  \"search_render_stride\": " << o.settings.searchRenderStride
        << ",\n  \"quarter_size_travel\": " << (o.settings.quarterSizeTravel ? "true" : "false")
        << ",\n  \"schedule\": \"" << ScheduleChoiceName(o.settings.schedule) << "\""

@@ -9,6 +9,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <mutex>
@@ -136,10 +137,20 @@ inline float PlaneSample(const PlaneRun& r, int j)
   return low + fc * (high - low);
 }
 
-float SamplePlanesScalar(const PlaneRun& r, int j0, int j1)
+/** The first multiple of `step` at or after q. */
+inline int FirstMultipleFrom(int q, int step)
 {
+  const int past = ((q % step) + step) % step;
+  return past == 0 ? q : q + step - past;
+}
+
+/** The samples j0 <= j < j1 whose plane m0 + sa j is a multiple of `step` (every one with 1). */
+float SamplePlanesScalar(const PlaneRun& r, int j0, int j1, int step)
+{
+  // With q = sa m: sample j = q - sa m0 lies on a kept plane where q is a multiple of step.
+  const int planeOfFirst = r.sa * r.m0;
   float sum = 0.0f;
-  for (int j = j0; j < j1; ++j)
+  for (int j = FirstMultipleFrom(planeOfFirst + j0, step) - planeOfFirst; j < j1; j += step)
   {
     sum += PlaneSample(r, j);
   }
@@ -349,14 +360,16 @@ PlaneRay SetUpPlaneRay(const AttenuationVolume& volume, const IndexRay& ray)
   return out;
 }
 
-/** Trilinear line integral on the voxel planes, one ray at a time, only in occupied blocks. */
-double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
+/** Trilinear line integral on the voxel planes (every planeSteps[a]-th along the ray's dominant
+ *  axis a), one ray at a time, only in occupied blocks. */
+double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray, const std::array<int, 3>& planeSteps)
 {
   const PlaneRay planeRay = SetUpPlaneRay(volume, ray);
   if (planeRay.axis < 0)
   {
     return 0.0;
   }
+  const int step = planeSteps[planeRay.axis];
   double sum = 0.0;
   ForEachOccupiedRun(volume, ray, planeRay.tEnter, planeRay.tExit,
     [&](double runStart, double runEnd)
@@ -365,10 +378,10 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray)
       planeRay.SamplesIn(runStart, runEnd, j0, j1);
       if (j1 > j0)
       {
-        sum += SamplePlanesScalar(planeRay.planes, j0, j1);
+        sum += SamplePlanesScalar(planeRay.planes, j0, j1, step);
       }
     });
-  return sum * planeRay.dt * volume.Quantum();
+  return sum * step * planeRay.dt * volume.Quantum();
 }
 
 /** Eight rays sampled together, lane r for ray r; lanes with first >= last take no samples. */
@@ -388,7 +401,7 @@ struct RayPacket
  * are PlaneSample's (same planes, voxels and weights, up to FMA rounding); in empty blocks
  * between occupied ones they are 0.
  */
-__attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packet, int axis, int sa, float* sums)
+__attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packet, int axis, int sa, int step, float* sums)
 {
   constexpr int Size = RayPacket::Size;
   // The planes ahead whose lines are fetched while this one is sampled: a plane's lines are far
@@ -431,7 +444,8 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packe
   const intptr_t origin = reinterpret_cast<intptr_t>(common->voxels);
   const int planeStride = sa * common->strideA; // m strideA = q planeStride
   __m256 sum = _mm256_setzero_ps();
-  for (int q = qBegin; q < qEnd; ++q)
+  // Only the planes that are multiples of step (q = sa m is one where m is).
+  for (int q = FirstMultipleFrom(qBegin, step); q < qEnd; q += step)
   {
     const __m256i j = _mm256_sub_epi32(_mm256_set1_epi32(q), vPlaneOfFirst);
     // Lanes outside their ray's samples gather nothing (their plane may lie outside the volume).
@@ -469,7 +483,7 @@ const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("
  * Line integrals of a packet's rays into integrals[0..Size-1]: one pass per distinct (axis,
  * direction) among its rays, one pass except where the dominant axis changes across the panel.
  */
-void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, float* integrals)
+void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, const std::array<int, 3>& planeSteps, float* integrals)
 {
   RayPacket packet;
   for (int r = 0; r < RayPacket::Size; ++r)
@@ -501,13 +515,14 @@ void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, float* i
       continue;
     }
     float sums[RayPacket::Size];
-    SamplePacketAVX2(packet, ray.axis, ray.planes.sa, sums);
+    const int step = planeSteps[ray.axis];
+    SamplePacketAVX2(packet, ray.axis, ray.planes.sa, step, sums);
     for (int s = r; s < RayPacket::Size; ++s)
     {
       if (packet.rays[s].axis == ray.axis && packet.rays[s].planes.sa == ray.planes.sa)
       {
         done[s] = true;
-        integrals[s] = static_cast<float>(sums[s] * packet.rays[s].dt * volume.Quantum());
+        integrals[s] = static_cast<float>(sums[s] * step * packet.rays[s].dt * volume.Quantum());
       }
     }
   }
@@ -809,6 +824,9 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
       std::to_string(pixels.Rows()) + " panel, the grid is " + std::to_string(grid.columns) + " x " +
       std::to_string(grid.rows));
   }
+  for (const int step : settings.planeSteps)
+    if (step < 1 || step > 4)
+      throw Error("ray caster: a plane step must be 1 to 4, not " + std::to_string(step));
   const Eigen::Affine3d roomToIndex = (ctToRoom * volume.PaddedIndexToCT()).inverse();
   if (settings.device == ComputeDevice::CUDA)
     return RenderLineIntegrals(volume, ctToRoom, { RenderTarget{ sourceInRoom, grid, &pixels, lineIntegrals } }, settings);
@@ -846,7 +864,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
           {
             rays[r] = rayOf(order[std::min(firstRay + r, traced - 1)]);
           }
-          TracePacket(volume, rays, integrals);
+          TracePacket(volume, rays, settings.planeSteps, integrals);
           for (long long r = 0; r < std::min<long long>(RayPacket::Size, traced - firstRay); ++r)
           {
             lineIntegrals[order[firstRay + r]] = integrals[r];
@@ -863,7 +881,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
         const IndexRay ray = rayOf(order[n]);
         const double integral = settings.method == RayCastMethod::Siddon ? TraceSiddon(volume, ray)
           : settings.stepSize > 0.0 ? TraceTrilinear(volume, ray, settings.stepSize)
-                                    : TracePlanes(volume, ray);
+                                    : TracePlanes(volume, ray, settings.planeSteps);
         lineIntegrals[order[n]] = static_cast<float>(integral);
       }
     });
@@ -885,8 +903,8 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   }
   if (volume.Dimensions().minCoeff() < 1)
     throw Error("ray caster: no volume");
-  if (settings.method != RayCastMethod::Trilinear || settings.stepSize > 0.0)
-    throw Error("ray caster: the GPU casts Joseph's scheme only (trilinear, one sample per voxel plane)");
+  if (settings.method != RayCastMethod::Trilinear || settings.stepSize > 0.0 || settings.planeSteps != std::array<int, 3>{ { 1, 1, 1 } })
+    throw Error("ray caster: the GPU casts Joseph's scheme only (trilinear, one sample on every voxel plane)");
   const Eigen::Affine3d roomToIndex = (ctToRoom * volume.PaddedIndexToCT()).inverse();
   return SharedGPU::Instance().Render(volume, roomToIndex, targets, settings.textureFilter);
 }

@@ -16,6 +16,7 @@
 #include "xpJosephRay.h"
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -83,6 +84,16 @@ struct VTKXPDRR_EXPORT RayCastSettings
    * trilinear interpolation on a plane is bilinear), the fastest and the reference for accuracy.
    */
   double stepSize = 0.0;
+  /**
+   * Joseph's scheme (stepSize 0) on every planeSteps[a]-th voxel plane along the ray's dominant
+   * index axis a of the CT, each sample weighing that many planes' length: the planes whose index
+   * (in the stored volume, padding included) is a multiple of the step, whatever the pose, so the
+   * DRR is that of the volume's kept planes, at full resolution across the ray. 1 (the default):
+   * every plane. A step of 2 where the CT's voxels are 1 mm halves the samples of a ray at the cost
+   * of its integral's finest detail along the ray (Algorithms.md, "Every second voxel plane in the
+   * refinement"). CPU only: the GPU samples every plane.
+   */
+  std::array<int, 3> planeSteps{ { 1, 1, 1 } };
   /**
    * Joseph's scheme on eight neighbouring rays at a time with AVX2, where the CPU has it (see
    * HasVectorRayCaster). false: one ray at a time in portable code, the reference that the vector

@@ -76,6 +76,10 @@ public:
    *  each), the pixels between bilinear; {1, 1}: every valid pixel's ray. */
   void SetStride(const RenderStride& stride);
   const RenderStride& Stride() const { return this->Settings; }
+  /** Sample every steps[a]-th voxel plane along the rays' dominant CT index axis a
+   *  (RayCastSettings::planeSteps; CPU only); { 1, 1, 1 }: every plane, the default. */
+  void SetPlaneSteps(const std::array<int, 3>& steps) { this->RayCast.planeSteps = steps; }
+  const std::array<int, 3>& PlaneSteps() const { return this->RayCast.planeSteps; }
   void SetDevice(ComputeDevice device) { this->RayCast.device = device; }
   ComputeDevice Device() const { return this->RayCast.device; }
 

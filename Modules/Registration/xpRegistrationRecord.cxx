@@ -646,6 +646,30 @@ std::vector<FieldCodec> RunCodecs()
         r.searchRenderStride = read("render_strides.search");
         r.fineRenderStride = read("render_strides.fine");
       } },
+    { { "fine_plane_steps", "array", "planes",
+        "the refinement's rays sample every n-th voxel plane along their dominant axis, per CT index axis (i, j, k)", "always" },
+      {},
+      [](const R& r)
+      {
+        Json::Value value(Json::arrayValue);
+        for (const int step : r.finePlaneSteps)
+          value.append(step);
+        return value;
+      },
+      [](const Fields& f, R& r)
+      {
+        const Json::Value& steps = f.At("fine_plane_steps");
+        if (!steps.isArray() || steps.size() != 3)
+          f.Fail("fine_plane_steps", "must be three whole numbers from 1 to 4");
+        for (Json::ArrayIndex a = 0; a < 3; ++a)
+        {
+          const std::string at = "fine_plane_steps[" + std::to_string(a) + "]";
+          const double value = steps[a].isNumeric() ? steps[a].asDouble() : 0.0;
+          if (value != std::floor(value) || value < 1 || value > 4)
+            f.Fail(at, "must be a whole number from 1 to 4");
+          r.finePlaneSteps[a] = static_cast<int>(value);
+        }
+      } },
     { { "evaluations", "integer", "", "stereo similarity evaluations at every size, the landscape's and the gate's included", "always",
         true },
       {}, [](const R& r) { return Json::Value(r.evaluations); },
@@ -930,6 +954,7 @@ RegistrationRecord MakeRegistrationRecord(const StereoRegistrationResult& result
   record.device = result.device;
   record.searchRenderStride = result.searchRenderStride;
   record.fineRenderStride = result.fineRenderStride;
+  record.finePlaneSteps = result.finePlaneSteps;
   record.evaluations = result.evaluations;
   record.prealignSeconds = result.prealignSeconds;
   record.maskSeconds = result.maskSeconds;

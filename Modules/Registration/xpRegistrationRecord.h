@@ -78,6 +78,7 @@ struct RegistrationRecord
   long long drrCount = 0;
   std::string device = "cpu"; ///< where the rays were cast: "cpu" or "cuda (GPU name)"
   RenderStride searchRenderStride, fineRenderStride; ///< rays cast on every N-th pixel of rows and columns (StereoSimilarity::SetRenderStride)
+  std::array<int, 3> finePlaneSteps{ { 1, 1, 1 } }; ///< the refinement's rays on every N-th voxel plane, per CT index axis
   int evaluations = 0;
   double readSeconds = 0.0, prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
   double searchApartMM = 0.0, searchApartDegrees = 0.0, searchObjectiveRatio = 1.0;

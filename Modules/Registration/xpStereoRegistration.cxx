@@ -149,6 +149,16 @@ Eigen::Vector3i HalvingFactors(const AttenuationVolume& volume, double maxHalved
   return factors;
 }
 
+std::array<int, 3> FinePlaneSteps(const AttenuationVolume& volume, const StereoRegistrationSettings& settings)
+{
+  if (settings.device == ComputeDevice::CUDA)
+    return { { 1, 1, 1 } };
+  if (settings.finePlaneStep > 0)
+    return { { settings.finePlaneStep, settings.finePlaneStep, settings.finePlaneStep } };
+  const Eigen::Vector3i halving = HalvingFactors(volume, settings.maxHalvedVoxelMM);
+  return { { halving[0], halving[1], halving[2] } };
+}
+
 namespace
 {
 
@@ -1213,6 +1223,8 @@ private:
       ? RenderStride{ settings.fineRenderStride, settings.fineRenderStride }
       : RenderStrideFor(this->Volume, this->Masked, this->PlannedCTToRoom, this->Isocenter);
     this->Fine->SetRenderStride(this->Result.fineRenderStride);
+    this->Result.finePlaneSteps = FinePlaneSteps(this->Volume, settings);
+    this->Fine->SetPlaneSteps(this->Result.finePlaneSteps);
   }
 
   /** The refinement's objective at `divisor`: the full-size one (Fine), or the same high-passed

@@ -41,6 +41,7 @@ void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
   CheckLimit(settings.xraySmoothingPerVoxel, 0.0, 10.0, "--xray-smoothing");
   CheckLimit(settings.xrayNoiseLevels, 0.0, 4096.0, "--xray-noise-levels");
   CheckLimit(settings.fineRenderStride, 0, 8, "--fine-render-stride");
+  CheckLimit(settings.finePlaneStep, 0, 4, "--fine-plane-step");
   CheckLimit(settings.searchRenderStride, 0, 8, "--search-render-stride");
   CheckLimit(settings.coverageMarginMM, 0.0, 100.0, "--coverage-margin-mm");
   CheckLimit(settings.coverageMinExcess, 0.0, 1.0, "--coverage-min-excess");

@@ -323,6 +323,92 @@ TEST(RayCasterAnalytic, VectorPacketsMatchOneRayAtATime)
   }
 }
 
+TEST(RayCasterAnalytic, PlaneStepsSampleEveryNthPlaneWeighingItsLength)
+{
+  // Slabs one voxel thick across each axis in turn, every second plane dense: with step 2 a ray
+  // along that axis samples either only dense planes (twice the every-plane integral) or only
+  // air between them (0), and the complementary slabs the other way round. A voxel at two
+  // opposite corners keeps the stored box, and so the planes' parity, the same for both.
+  const int n = 48;
+  for (int direction = 0; direction < 6; ++direction)
+  {
+    // Rays up and down each axis: they enter the volume at either end, on planes of either parity.
+    const int axis = direction / 2;
+    const double sense = direction % 2 == 0 ? 1.0 : -1.0;
+    double stepTwo[2][2] = {}; // [phase][vectorized]
+    double everyPlane[2] = {};
+    for (int phase = 0; phase < 2; ++phase)
+    {
+      const xp::AttenuationVolume volume = MakeVolume(n,
+        [axis, phase](const Eigen::Vector3d& p)
+        {
+          const Eigen::Vector3d index = p + Eigen::Vector3d::Constant(0.5 * (n - 1));
+          if ((index.array() < 0.5).all() || (index.array() > n - 1.5).all())
+            return 1.0;
+          const bool inside = (p.cwiseAbs().array() < 15.0).all();
+          return inside && static_cast<int>(std::lround(index[axis])) % 2 == phase ? 2.0 : 0.0;
+        });
+      // Rays along +axis, 10 % oblique across it: the dominant axis stays `axis`.
+      const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+      Eigen::Vector3d source = Eigen::Vector3d::Zero(), centre = Eigen::Vector3d::Zero();
+      source[axis] = -600.0 * sense;
+      source[b] = 3.0;
+      centre[axis] = 400.0 * sense;
+      xp::DetectorGrid grid;
+      grid.columns = grid.rows = 16;
+      grid.columnStep = 1.2 * Eigen::Vector3d::Unit(b);
+      grid.rowStep = 1.2 * Eigen::Vector3d::Unit(c);
+      grid.origin = centre - 7.5 * grid.columnStep - 7.5 * grid.rowStep;
+      const size_t pixels = static_cast<size_t>(grid.columns) * grid.rows;
+      for (const bool vectorized : { false, true })
+      {
+        if (vectorized && !xp::HasVectorRayCaster())
+          continue;
+        xp::RayCastSettings settings;
+        settings.vectorized = vectorized;
+        std::vector<float> every(pixels), second(pixels);
+        xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, nullptr, every.data(), settings);
+        settings.planeSteps[axis] = 2;
+        xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, nullptr, second.data(), settings);
+        // Another axis's step leaves these rays alone.
+        settings.planeSteps[axis] = 1;
+        settings.planeSteps[b] = 2;
+        std::vector<float> other(pixels);
+        xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, nullptr, other.data(), settings);
+        for (size_t i = 0; i < pixels; ++i)
+          EXPECT_NEAR(other[i], every[i], 1e-5 * every[i] + 1e-7) << "axis " << axis << ", sense " << sense << ", pixel " << i;
+        everyPlane[phase] = 0.0;
+        for (size_t i = 0; i < pixels; ++i)
+        {
+          everyPlane[phase] += every[i];
+          stepTwo[phase][vectorized] += second[i];
+        }
+      }
+    }
+    ASSERT_GT(everyPlane[0], 0.0);
+    ASSERT_NEAR(everyPlane[1], everyPlane[0], 0.1 * everyPlane[0]) << "axis " << axis << ", sense " << sense << ": the phases' slabs are alike";
+    for (const int vectorized : { 0, 1 })
+    {
+      if (vectorized && !xp::HasVectorRayCaster())
+        continue;
+      // One phase's step-2 integral is twice its every-plane one, the other's none.
+      const int dense = stepTwo[0][vectorized] > stepTwo[1][vectorized] ? 0 : 1;
+      EXPECT_NEAR(stepTwo[dense][vectorized], 2.0 * everyPlane[dense], 0.01 * everyPlane[dense])
+        << "axis " << axis << ", sense " << sense << (vectorized ? ", packets" : ", one ray at a time");
+      EXPECT_LT(stepTwo[1 - dense][vectorized], 0.01 * everyPlane[1 - dense])
+        << "axis " << axis << ", sense " << sense << (vectorized ? ", packets" : ", one ray at a time");
+    }
+    if (xp::HasVectorRayCaster())
+      EXPECT_EQ(stepTwo[0][0] > stepTwo[1][0], stepTwo[0][1] > stepTwo[1][1]) << "both paths keep the same planes";
+  }
+  xp::RayCastSettings refused;
+  refused.planeSteps[1] = 0;
+  std::vector<float> out(64 * 64);
+  const xp::AttenuationVolume volume = MakeVolume(8, [](const Eigen::Vector3d&) { return 1.0; });
+  EXPECT_THROW(
+    xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), Source, Panel(1.0), nullptr, out.data(), refused), xp::Error);
+}
+
 TEST(AttenuationVolume, StoresTheBoxOfNonAirVoxelsAndKeepsTheCTGrid)
 {
   // A 20 x 16 x 12 CT, air (and noise below the air threshold) but for a block of water at

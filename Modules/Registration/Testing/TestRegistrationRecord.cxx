@@ -36,6 +36,7 @@ xp::RegistrationRecord FailedRecord()
   result.drrCount = 1234;
   result.searchRenderStride = { 2, 2 };
   result.fineRenderStride = { 1, 3 };
+  result.finePlaneSteps = { { 2, 2, 1 } };
   result.evaluations = 600;
   result.stages = { { "coarse search", 0, 1.5 }, { "fine", 400, 2.25 } };
   result.stages[1].evaluations = 150;
@@ -126,6 +127,7 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_EQ(read.searchRenderStride.rows, 2);
   EXPECT_EQ(read.fineRenderStride.columns, 1) << "columns and rows not swapped";
   EXPECT_EQ(read.fineRenderStride.rows, 3);
+  EXPECT_EQ(read.finePlaneSteps, (std::array<int, 3>{ { 2, 2, 1 } })) << "the axes not swapped";
   EXPECT_DOUBLE_EQ(read.totalSeconds, 4.5);
   ASSERT_EQ(read.stages.size(), 2u);
   EXPECT_EQ(read.stages[1].firstEvaluation, 400);
@@ -337,6 +339,35 @@ TEST(RegistrationRecord, RefusesARenderStrideNoRegistrationUses)
   std::istringstream(current) >> root;
   root["render_strides"]["search"] = 0;
   EXPECT_THROW(xp::ParseRegistrationRecord(Json::writeString(Json::StreamWriterBuilder(), root), "old.json"), xp::InputError);
+}
+
+TEST(RegistrationRecord, PlaneStepsReadBackAndEarlierRecordsSampledEveryPlane)
+{
+  xp::RegistrationRecord written = FailedRecord();
+  written.finePlaneSteps = { { 2, 1, 2 } };
+  const std::string current = xp::RegistrationRecordJSON(written);
+  Json::Value root;
+  std::istringstream(current) >> root;
+  ASSERT_EQ(root["fine_plane_steps"].size(), 3u);
+  EXPECT_EQ(root["fine_plane_steps"][1].asInt(), 1);
+  root.removeMember("fine_plane_steps"); // written before the refinement skipped planes
+  EXPECT_EQ(xp::ParseRegistrationRecord(Json::writeString(Json::StreamWriterBuilder(), root), "old.json").finePlaneSteps,
+    (std::array<int, 3>{ { 1, 1, 1 } }));
+  for (const Json::Value& bad : { Json::Value(0), Json::Value(5), Json::Value(1.5), Json::Value("2") })
+  {
+    std::istringstream(current) >> root;
+    root["fine_plane_steps"][2] = bad;
+    try
+    {
+      xp::ParseRegistrationRecord(Json::writeString(Json::StreamWriterBuilder(), root), "run/result.json");
+      ADD_FAILURE() << "a plane step of " << bad << " was accepted";
+    }
+    catch (const xp::InputError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("fine_plane_steps[2]"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("run/result.json"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)

@@ -289,6 +289,33 @@ TEST(StereoRegistration, HalvingFactorsHalveOnlyTheAxesThatStayFine)
   EXPECT_EQ(factorsFor(Eigen::Vector3d(3.0, 0.9, 0.9)), "122");
 }
 
+TEST(StereoRegistration, TheRefinementSkipsPlanesOnlyWhereTheHalvedCTWouldStayFine)
+{
+  const std::vector<float> water(8 * 8 * 8, 0.0f);
+  const auto stepsFor = [&](const Eigen::Vector3d& spacing, const xp::StereoRegistrationSettings& settings)
+  {
+    Eigen::Affine3d indexToCT = Eigen::Affine3d::Identity();
+    indexToCT.linear() = spacing.asDiagonal();
+    const xp::AttenuationVolume volume(water.data(), Eigen::Vector3i(8, 8, 8), indexToCT, xp::WaterAttenuationPerMM);
+    const std::array<int, 3> s = xp::FinePlaneSteps(volume, settings);
+    return std::to_string(s[0]) + std::to_string(s[1]) + std::to_string(s[2]);
+  };
+  xp::StereoRegistrationSettings automatic; // finePlaneStep 0
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(1.0, 1.0, 1.0), automatic), "222");
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(0.9, 0.9, 3.0), automatic), "221"); // thick slices: every one
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(1.5, 1.5, 1.5), automatic), "111");
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(2.0, 2.0, 2.0), automatic), "111");
+  xp::StereoRegistrationSettings every = automatic;
+  every.finePlaneStep = 1;
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(1.0, 1.0, 1.0), every), "111");
+  xp::StereoRegistrationSettings second = automatic;
+  second.finePlaneStep = 2;
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(2.0, 2.0, 2.0), second), "222");
+  xp::StereoRegistrationSettings gpu = automatic;
+  gpu.device = xp::ComputeDevice::CUDA;
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(1.0, 1.0, 1.0), gpu), "111") << "the GPU samples every plane";
+}
+
 TEST(StereoSimilarity, CTSpacingAlongADirectionIsTheVoxelsExtentAlongIt)
 {
   const std::vector<float> water(8 * 8 * 8, 0.0f);
@@ -1856,6 +1883,7 @@ TEST(StereoRegistrationOnGPU, FindsTheCPUsPose)
   for (bool refinementOnGPU : { false, true })
   {
     xp::StereoRegistrationSettings settings;
+    settings.finePlaneStep = 1; // the GPU samples every voxel plane: the CPU the same ones
     if (refinementOnGPU)
     {
       settings.fineHighPassMM = 0.0;
