@@ -982,54 +982,6 @@ TEST(StereoRegistration, CostsAreAccountedPerStage)
   EXPECT_LE(staged, result.drrCount);
 }
 
-// A CT of 1.25 mm voxels: the refinement samples every second voxel plane, and ends where the
-// one on every plane ends; the polish, the gate and the result's DRRs read every plane.
-TEST(StereoRegistration, TheRefinementOnEveryOtherPlaneEndsWhereEveryPlaneEnds)
-{
-  const Scene scene(xp::MakeHeadPhantom(1.25));
-  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
-  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 256, 192);
-  xp::StereoRegistrationSettings every;
-  every.finePlaneStep = 1;
-  const xp::StereoRegistrationResult skipping = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
-  const xp::StereoRegistrationResult all = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, every);
-  EXPECT_EQ(skipping.finePlaneSteps, (std::array<int, 3>{ { 2, 2, 2 } }));
-  EXPECT_EQ(all.finePlaneSteps, (std::array<int, 3>{ { 1, 1, 1 } }));
-  const std::string against = Described(skipping) + " against " + Described(all);
-  EXPECT_TRUE(skipping.ok) << against;
-  EXPECT_TRUE(all.ok) << against;
-  EXPECT_LE((skipping.misalignment.translation - all.misalignment.translation).norm(), 0.15) << against;
-  EXPECT_LE(std::abs(skipping.misalignment.pitch - all.misalignment.pitch), 0.1) << against;
-  EXPECT_LE(std::abs(skipping.misalignment.roll - all.misalignment.roll), 0.1) << against;
-  EXPECT_LE(std::abs(skipping.misalignment.yaw - all.misalignment.yaw), 0.1) << against;
-  EXPECT_LE((skipping.misalignment.translation - truth.translation).norm(), 0.3) << against;
-  // The result's DRRs are the ones every plane gives at the result, not every other plane's.
-  std::vector<xp::RegistrationView> masked = views;
-  for (size_t v = 0; v < masked.size(); ++v)
-    masked[v].mask = skipping.masks[v];
-  const Eigen::Isometry3d atResult = xp::MisalignedCTToRoom(scene.planned, skipping.misalignment, Eigen::Vector3d::Zero());
-  for (const int step : { 1, 2 })
-  {
-    xp::DRRProjector projector(scene.volume, masked);
-    projector.SetStride(skipping.fineRenderStride);
-    projector.SetPlaneSteps({ { step, step, step } });
-    projector.Render(atResult);
-    for (size_t v = 0; v < masked.size(); ++v)
-    {
-      std::vector<uint16_t> drr(masked[v].mask.size());
-      xp::LineIntegralsTo12Bit(projector.Integrals(v).data(), masked[v].mask.data(), static_cast<long long>(drr.size()), drr.data());
-      ASSERT_EQ(drr.size(), skipping.drrs[v].size());
-      int differ = 0;
-      for (size_t i = 0; i < drr.size(); ++i)
-        differ += std::abs(int(drr[i]) - int(skipping.drrs[v][i])) > 1;
-      if (step == 1)
-        EXPECT_EQ(differ, 0) << "view " << v << ": the result's DRR is every plane's";
-      else
-        EXPECT_GT(differ, 0) << "view " << v << ": every other plane's DRR differs somewhere";
-    }
-  }
-}
-
 // The schedule is the registration's plan: its stages in order, each at its size and within its
 // budget; the trace's stages are the 6-DOF ones that ran, their evaluations adding up to the total.
 TEST(RegistrationSchedule, ListsTheMethodsStagesInOrder)
