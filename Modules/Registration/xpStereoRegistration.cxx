@@ -876,13 +876,13 @@ public:
         {
           const PoseOptimizerResult& end = refined.ends.front();
           this->MeasureAround(stage, end);
-          this->Result.drrCount += this->Fine->RenderedDRRs() + (this->Exact ? this->Exact->RenderedDRRs() : 0);
+          this->Result.drrCount += this->Fine->RenderedDRRs();
           for (auto& [divisor, similarity] : this->ShrunkRefinements)
             this->Result.drrCount += similarity->RenderedDRRs();
           this->Result.converged = end.converged;
           this->Result.misalignment = this->AboutIsocenter(end.pose);
           this->Result.correction = this->Result.misalignment.Inverse();
-          this->Result.mutualInformation = this->Final().LastMutualInformation();
+          this->Result.mutualInformation = this->Fine->LastMutualInformation();
           this->Result.fineSeconds = Since(sixDOFStart);
           break;
         }
@@ -1225,19 +1225,7 @@ private:
     this->Fine->SetRenderStride(this->Result.fineRenderStride);
     this->Result.finePlaneSteps = FinePlaneSteps(this->Volume, settings);
     this->Fine->SetPlaneSteps(this->Result.finePlaneSteps);
-    // The polish, the landscape and the gate read every plane: the climb's cheaper objective
-    // leaves its end to the exact one, and the result's DRRs are the CT's own.
-    if (this->Result.finePlaneSteps != std::array<int, 3>{ { 1, 1, 1 } })
-    {
-      this->Exact = this->Similarity(
-        this->Volume, this->Masked, { settings.equalizedLevels, settings.fineHighPassMM, this->CorrelationMM });
-      this->Exact->SetRenderStride(this->Result.fineRenderStride);
-    }
   }
-
-  /** The full-size objective that polishes, measures and judges the result: every voxel plane
-   *  (the refinement's own where it samples every plane too). */
-  StereoSimilarity& Final() { return this->Exact ? *this->Exact : *this->Fine; }
 
   /** The refinement's objective at `divisor`: the full-size one (Fine), or the same high-passed
    *  levels on the masked views shrunk, from the CT the searches at that size render, at the stride
@@ -1271,10 +1259,7 @@ private:
   PoseOptimizerResult Polish(const ScheduledStage& stage, PoseOptimizerResult end)
   {
     this->Trace.Begin(stage.name, stage.imageDivisor);
-    const auto objective = this->Traced(this->Final(), &this->Result.evaluations);
-    if (this->Exact) // the refined end's value on the objective the polish climbs
-      end.value = objective(end.pose);
-    const VertexPolish polish = PolishToVertex(objective, end.pose, end.value,
+    const VertexPolish polish = PolishToVertex(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value,
       this->Settings.landscapeNearMM, this->Settings.landscapeNearDegrees, stage.rounds, stage.optimizer.toleranceMM,
       stage.optimizer.toleranceDegrees);
     end.pose = polish.pose;
@@ -1339,7 +1324,7 @@ private:
     // (landscapeNear): their curvature is read, not measured again around the polished end.
     this->Result.uncertainty = this->PolishProbes
       ? UncertaintyFromProbes(*this->PolishProbes, end.value)
-      : MeasureUncertainty(this->Traced(this->Final(), &this->Result.evaluations), end.pose, end.value, settings);
+      : MeasureUncertainty(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value, settings);
     this->Trace.Begin("held-out check", heldOutDivisor);
     const PeakLeads leads = MeasurePeakLeads(this->Traced(*heldOut, &this->Result.evaluations), end.pose, settings);
     this->Result.peakMargin = leads.margin;
@@ -1357,7 +1342,7 @@ private:
     this->Result.drrCount += atFullSize->RenderedDRRs();
     // The refinement's objective and DRRs at the result: what the gate reads. After the polish
     // its last evaluation was the result's, and no other pose has been evaluated on it since.
-    this->Result.objective = this->PolishProbes ? end.value : this->Traced(this->Final(), &this->Result.evaluations)(end.pose);
+    this->Result.objective = this->PolishProbes ? end.value : this->Traced(*this->Fine, &this->Result.evaluations)(end.pose);
     this->Trace.End();
   }
 
@@ -1366,7 +1351,7 @@ private:
   {
     for (size_t v = 0; v < gate.views.size(); ++v)
     {
-      this->Result.drrs.push_back(this->Final().LastDRR(v));
+      this->Result.drrs.push_back(this->Fine->LastDRR(v));
       this->Result.masks.push_back(this->Masked[v].mask);
       const ViewEvidence& view = gate.views[v];
       this->Result.explained.push_back(view.explained);
@@ -1406,7 +1391,7 @@ private:
       {
         JointHistogram histogram(settings.bins);
         for (size_t v = first; v < last; ++v)
-          gate.views[v] = MeasureView(this->Final(), v, this->Working.openFieldBright[v], this->Isocenter, settings, histogram);
+          gate.views[v] = MeasureView(*this->Fine, v, this->Working.openFieldBright[v], this->Isocenter, settings, histogram);
       });
     evidence.views = gate.views;
     gate.failures = CheckQuality(evidence, settings);
@@ -1432,8 +1417,6 @@ private:
   std::vector<std::vector<uint8_t>> Content; ///< each view's entropy mask AND ROI
   std::vector<RegistrationView> Masked;      ///< the ranked views with their validity masks
   std::unique_ptr<StereoSimilarity> PreAlignment, Fine;
-  /** With the refinement on every other plane: the full-size objective on every plane (Final). */
-  std::unique_ptr<StereoSimilarity> Exact;
   /** The searches' similarities by image divisor and high-pass (ScheduledStage::highPassMM). */
   std::map<std::pair<int, double>, std::unique_ptr<StereoSimilarity>> Searches;
   std::map<int, std::unique_ptr<StereoSimilarity>> ShrunkRefinements; ///< the refinement's objective on shrunk images, by divisor
