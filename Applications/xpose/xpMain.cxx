@@ -75,8 +75,8 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     "(0: per panel axis, 2 where two pixels at the isocentre span at most the CT's voxel spacing along that axis, else 1)")
     ->capture_default_str();
   command->add_option("--fine-plane-step", settings.finePlaneStep,
-    "The refinement's rays sample every N-th voxel plane along their dominant axis (0: per CT axis, 2 where the half-size "
-    "stages halve the CT, voxels of at most 1.25 mm, else 1; 1: every plane; the GPU samples every plane)")
+    "The refinement's rays sample every N-th voxel plane along their dominant axis (1: every plane; 0: per CT axis, 2 where "
+    "the half-size stages halve the CT, voxels of at most 1.25 mm, else 1: faster on such CTs; the GPU samples every plane)")
     ->capture_default_str();
   command->add_option("--search-render-stride", settings.searchRenderStride,
     "The same for the coarse searches' half-size DRRs (0: as for the refinement, for the CT they render; 1: every ray)")->capture_default_str();

@@ -300,14 +300,13 @@ TEST(StereoRegistration, TheRefinementSkipsPlanesOnlyWhereTheHalvedCTWouldStayFi
     const std::array<int, 3> s = xp::FinePlaneSteps(volume, settings);
     return std::to_string(s[0]) + std::to_string(s[1]) + std::to_string(s[2]);
   };
-  xp::StereoRegistrationSettings automatic; // finePlaneStep 0
+  xp::StereoRegistrationSettings automatic;
+  automatic.finePlaneStep = 0;
   EXPECT_EQ(stepsFor(Eigen::Vector3d(1.0, 1.0, 1.0), automatic), "222");
   EXPECT_EQ(stepsFor(Eigen::Vector3d(0.9, 0.9, 3.0), automatic), "221"); // thick slices: every one
   EXPECT_EQ(stepsFor(Eigen::Vector3d(1.5, 1.5, 1.5), automatic), "111");
   EXPECT_EQ(stepsFor(Eigen::Vector3d(2.0, 2.0, 2.0), automatic), "111");
-  xp::StereoRegistrationSettings every = automatic;
-  every.finePlaneStep = 1;
-  EXPECT_EQ(stepsFor(Eigen::Vector3d(1.0, 1.0, 1.0), every), "111");
+  EXPECT_EQ(stepsFor(Eigen::Vector3d(1.0, 1.0, 1.0), xp::StereoRegistrationSettings{}), "111") << "every plane by default";
   xp::StereoRegistrationSettings second = automatic;
   second.finePlaneStep = 2;
   EXPECT_EQ(stepsFor(Eigen::Vector3d(2.0, 2.0, 2.0), second), "222");
@@ -980,6 +979,32 @@ TEST(StereoRegistration, CostsAreAccountedPerStage)
     staged += stage.cost.drrs;
   }
   EXPECT_LE(staged, result.drrCount);
+}
+
+// A CT of 1.25 mm voxels: the refinement on every second voxel plane (--fine-plane-step 0) ends
+// where the one on every plane ends.
+TEST(StereoRegistration, TheRefinementOnEveryOtherPlaneEndsWhereEveryPlaneEnds)
+{
+  const Scene scene(xp::MakeHeadPhantom(1.25));
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 256, 192);
+  xp::StereoRegistrationSettings skip;
+  skip.finePlaneStep = 0;
+  const xp::StereoRegistrationResult skipping = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, skip);
+  const xp::StereoRegistrationResult all = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  EXPECT_EQ(skipping.finePlaneSteps, (std::array<int, 3>{ { 2, 2, 2 } }));
+  EXPECT_EQ(all.finePlaneSteps, (std::array<int, 3>{ { 1, 1, 1 } }));
+  const std::string against = Described(skipping) + " against " + Described(all);
+  EXPECT_TRUE(skipping.ok) << against;
+  EXPECT_TRUE(all.ok) << against;
+  EXPECT_LE((skipping.misalignment.translation - all.misalignment.translation).norm(), 0.15) << against;
+  EXPECT_LE(std::abs(skipping.misalignment.pitch - all.misalignment.pitch), 0.1) << against;
+  EXPECT_LE(std::abs(skipping.misalignment.roll - all.misalignment.roll), 0.1) << against;
+  EXPECT_LE(std::abs(skipping.misalignment.yaw - all.misalignment.yaw), 0.1) << against;
+  EXPECT_LE((skipping.misalignment.translation - truth.translation).norm(), 0.3) << against;
+  // Every other plane's DRRs are not every plane's: the setting reached the renderer.
+  ASSERT_EQ(skipping.drrs.size(), all.drrs.size());
+  EXPECT_NE(skipping.drrs[0], all.drrs[0]);
 }
 
 // The schedule is the registration's plan: its stages in order, each at its size and within its
