@@ -79,7 +79,6 @@ public:
   /** Sample every steps[a]-th voxel plane along the rays' dominant CT index axis a
    *  (RayCastSettings::planeSteps; CPU only); { 1, 1, 1 }: every plane, the default. */
   void SetPlaneSteps(const std::array<int, 3>& steps) { this->RayCast.planeSteps = steps; }
-  const std::array<int, 3>& PlaneSteps() const { return this->RayCast.planeSteps; }
   void SetDevice(ComputeDevice device) { this->RayCast.device = device; }
   ComputeDevice Device() const { return this->RayCast.device; }
 

@@ -282,9 +282,6 @@ double StereoSimilarity::ObjectiveOf(const std::vector<std::vector<float>>& inte
 
 void StereoSimilarity::SetPlaneSteps(const std::array<int, 3>& steps)
 {
-  for (const int step : steps)
-    if (step < 1 || step > 4)
-      throw InputError("plane step", "must be 1 to 4, not " + std::to_string(step));
   if (this->Device() == ComputeDevice::CUDA && steps != std::array<int, 3>{ { 1, 1, 1 } })
     throw InputError("plane step", "the GPU samples every voxel plane: 1 only");
   this->Projector.SetPlaneSteps(steps);

@@ -129,11 +129,10 @@ public:
   /**
    * Sample every `steps[a]`-th voxel plane along the rays' dominant CT index axis a
    * (RayCastSettings::planeSteps): { 2, 2, 2 } on a CT of 1 mm voxels halves a ray's samples and
-   * keeps its resolution across the ray. CPU only (refused on the GPU). Call before the first
-   * evaluation.
+   * keeps its resolution across the ray (1 to 4; the ray caster refuses others when it renders).
+   * CPU only (refused here on the GPU). Call before the first evaluation.
    */
   void SetPlaneSteps(const std::array<int, 3>& steps);
-  const std::array<int, 3>& PlaneSteps() const { return this->Projector.PlaneSteps(); }
   /** The same stride along rows and columns. */
   void SetRenderStride(int stride) { this->SetRenderStride(RenderStride{ stride, stride }); }
   /**

@@ -1002,7 +1002,7 @@ TEST(StereoRegistration, TheRefinementOnEveryOtherPlaneEndsWhereEveryPlaneEnds)
   EXPECT_LE(std::abs(skipping.misalignment.roll - all.misalignment.roll), 0.1) << against;
   EXPECT_LE(std::abs(skipping.misalignment.yaw - all.misalignment.yaw), 0.1) << against;
   EXPECT_LE((skipping.misalignment.translation - truth.translation).norm(), 0.3) << against;
-  // Every other plane's DRRs are not every plane's: the setting reached the renderer.
+  // The setting reached the renderer: ignored there, both runs would be the same to the bit.
   ASSERT_EQ(skipping.drrs.size(), all.drrs.size());
   EXPECT_NE(skipping.drrs[0], all.drrs[0]);
 }
