@@ -142,6 +142,11 @@ void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
     "Gate: mm (at the isocentre) a view's own 2D registration may still move")->capture_default_str();
   command->add_option("--max-halves-apart-mm", settings.maxHalvesApartMM,
     "Gate: mm (at the isocentre) that a view's two halves may end apart, registered each on its own and both at once (the larger)")->capture_default_str();
+  command->add_option("--max-halves-apart-clear-peak-mm", settings.maxHalvesApartClearPeakMM,
+    "Gate: ... and where the result leads its held-out neighbours by at least --clear-peak-margin")->capture_default_str();
+  command->add_option("--clear-peak-margin", settings.clearPeakMargin,
+    "Gate: the held-out lead (see --min-peak-margin) at which the halves may end --max-halves-apart-clear-peak-mm apart")
+    ->capture_default_str();
   command->add_option("--max-uncovered", settings.maxUncovered,
     "Gate: fraction of a view's valid pixels that may show anatomy the CT does not cover")->capture_default_str();
   command->add_option("--max-search-apart-mm", settings.maxSearchDisagreementMM,

@@ -3,6 +3,7 @@
 #include "xpError.h"
 #include "xpStereoRegistration.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -71,6 +72,7 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
          std::make_pair(settings.maxUncovered, "maxUncovered"), std::make_pair(settings.maxUncertaintyMM, "maxUncertaintyMM"),
          std::make_pair(settings.maxUncertaintyDegrees, "maxUncertaintyDegrees"),
          std::make_pair(settings.maxHalvesApartMM, "maxHalvesApartMM"),
+         std::make_pair(settings.maxHalvesApartClearPeakMM, "maxHalvesApartClearPeakMM"),
          std::make_pair(settings.halvesSearchStepMM, "halvesSearchStepMM"),
          std::make_pair(settings.maxRestartsApartMM, "maxRestartsApartMM"),
          std::make_pair(settings.maxRestartsApartDegrees, "maxRestartsApartDegrees"),
@@ -106,8 +108,8 @@ void ValidateGateLimits(const StereoRegistrationSettings& settings)
   {
     throw InputError("registration settings: minValidPixelsPerCell", "must be between 0 and 1000");
   }
-  for (const auto& [value, name] :
-    { std::make_pair(settings.minPeakMargin, "minPeakMargin"), std::make_pair(settings.boneMinPeakMargin, "boneMinPeakMargin") })
+  for (const auto& [value, name] : { std::make_pair(settings.minPeakMargin, "minPeakMargin"),
+         std::make_pair(settings.boneMinPeakMargin, "boneMinPeakMargin"), std::make_pair(settings.clearPeakMargin, "clearPeakMargin") })
     if (!(value >= -1.0 && value <= 1.0))
       throw InputError(std::string("registration settings: ") + name, "must be between -1 and 1");
   if (!(settings.minValidFraction >= 0.0 && settings.minValidFraction <= 1.0))
@@ -166,6 +168,11 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
         (settings.heldOutJudgesTurns ? Format(" and %.1f degrees turned", settings.landscapeCheckDegrees) : std::string()) +
         Format(" by %.1f %% (< %.1f %%): the images do not single out this pose", 100.0 * evidence.peakMargin,
           100.0 * settings.minPeakMargin) });
+  // Where the held-out peak is clear, the halves may end farther apart: noise scatters them, and
+  // another anatomy would have cost the peak its lead too (StereoRegistrationSettings).
+  const bool clearPeak = evidence.peakMargin >= settings.clearPeakMargin;
+  const double halvesLimit =
+    clearPeak ? std::max(settings.maxHalvesApartMM, settings.maxHalvesApartClearPeakMM) : settings.maxHalvesApartMM;
   static const char* axes[6] = { "tx", "ty", "tz", "pitch", "roll", "yaw" };
   for (int a = 0; a < 6; ++a)
   {
@@ -211,12 +218,13 @@ std::vector<GateFailure> CheckQuality(const GateEvidence& evidence, const Stereo
           Format(": %.0f %% of the valid pixels show anatomy where the CT has none at the result (> %.0f %%): the CT does "
                  "not cover what the X-ray shows; a ROI around the anatomy the CT covers can exclude the rest",
             100.0 * view.uncovered, 100.0 * settings.maxUncovered) });
-    if (!(view.halvesApartMM <= settings.maxHalvesApartMM))
+    if (!(view.halvesApartMM <= halvesLimit))
       failures.push_back({ GateCode::HalvesDisagree, index,
         "view " + view.name +
-          Format(": its two halves, registered each on its own and both at once, end %.2f mm apart (> %.2f mm): the anatomy does not "
-                 "fit one rigid pose (another patient, or a changed one)",
-            view.halvesApartMM, settings.maxHalvesApartMM) });
+          Format(": its two halves, registered each on its own and both at once, end %.2f mm apart (> %.2f mm", view.halvesApartMM,
+            halvesLimit) +
+          (clearPeak ? Format(", with the held-out peak leading by %.1f %%", 100.0 * evidence.peakMargin) : std::string()) +
+          "): the anatomy does not fit one rigid pose (another patient, or a changed one)" });
     if (!(view.residualMM <= settings.maxViewResidual && std::abs(view.residualDegrees) <= settings.maxViewResidualDegrees))
       failures.push_back({ GateCode::ViewDisagrees, index,
         "view " + view.name +

@@ -678,6 +678,8 @@ StereoRegistrationSettings ForBone(StereoRegistrationSettings settings, const At
   // the metacarpal's halves ended 1.2-9.8 mm apart (0.5 mm steps: mostly under 1 mm). The
   // halves check of a bone stays local; its restarts test the pose.
   settings.halvesSearchStepMM = 0.5 * settings.maxViewResidual;
+  // A bone's leads are a correlation's, on another scale: no clear peak widens its halves' limit.
+  settings.maxHalvesApartClearPeakMM = settings.maxHalvesApartMM;
   settings.maxUncovered = 1.0;
   settings.minValidFraction = 0.0;
   return settings;

@@ -175,6 +175,14 @@ struct StereoRegistrationSettings
   double maxViewResidualDegrees = 1.0; ///< gate: and degrees it may still turn in its plane
   /** gate: mm (at the isocentre) that the 2D registrations of a view's two halves may end apart. */
   double maxHalvesApartMM = 1.0;
+  /** gate: ... and this far where the result's held-out peak is clear (peakMargin at least
+   *  clearPeakMargin): another anatomy costs both checks at once, noise mostly the halves. On
+   *  seed 14's stored matrix runs 25 results failed on halves 1.01-1.24 mm apart alone with
+   *  leads of 0.174-0.314, all within 0.86 mm of the truth; a pelvis stretched by 10 % that
+   *  failed on its halves alone led by 0.161 at most, its halves 2.67 mm apart or more where it
+   *  led by 0.14 or more (Algorithms.md, "A verdict...", 3). */
+  double maxHalvesApartClearPeakMM = 1.25;
+  double clearPeakMargin = 0.17;
   /** The halves' 2D searches start with steps of this size (mm at the isocentre). The halves of
    *  an anatomy 10 % longer than the CT's lie 3-7 mm from the whole's result; searches that
    *  started with the view residual's 0.5 mm steps stayed in the nearest local optimum and

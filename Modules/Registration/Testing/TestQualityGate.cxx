@@ -140,6 +140,48 @@ TEST(QualityGate, EachLimitFailsItsOwnCodeAndNamesTheView)
   EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::ViewDisagrees });
 }
 
+TEST(QualityGate, HalvesMayEndFartherApartOnlyWhereTheHeldOutPeakIsClear)
+{
+  // Halves 1.1 mm apart: over the 1 mm limit, under the clear peak's 1.25 mm.
+  xp::GateEvidence e = GoodEvidence();
+  e.peakMargin = 0.169; // a lead above the 14 % limit but not clear
+  e.views[1].halvesApartMM = 1.1;
+  const std::vector<xp::GateFailure> failures = xp::CheckQuality(e, {});
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0].code, xp::GateCode::HalvesDisagree);
+  EXPECT_EQ(failures[0].view, 1);
+  EXPECT_NE(failures[0].message.find("1.10 mm apart (> 1.00 mm)"), std::string::npos) << failures[0].message;
+  e.peakMargin = 0.17; // clear: on the limit passes
+  EXPECT_TRUE(Codes(e).empty());
+  e.views[1].halvesApartMM = 1.25;
+  EXPECT_TRUE(Codes(e).empty());
+  e.views[1].halvesApartMM = 1.26; // beyond the clear peak's limit: the message says why it was wider
+  const std::vector<xp::GateFailure> far = xp::CheckQuality(e, {});
+  ASSERT_EQ(far.size(), 1u);
+  EXPECT_EQ(far[0].code, xp::GateCode::HalvesDisagree);
+  EXPECT_NE(far[0].message.find("1.26 mm apart (> 1.25 mm, with the held-out peak leading by 17.0 %)"), std::string::npos)
+    << far[0].message;
+  e.views[1].halvesApartMM = 1.1;
+  e.peakMargin = std::nan(""); // no lead measured: neither clear nor distinct
+  EXPECT_EQ(Codes(e), (Codes_t{ xp::GateCode::NotDistinct, xp::GateCode::HalvesDisagree }));
+  e.views[1].halvesApartMM = std::nan("");
+  e.peakMargin = 0.3;
+  EXPECT_EQ(Codes(e), Codes_t{ xp::GateCode::HalvesDisagree });
+
+  // The settings: a clear limit under the plain one never narrows it; a clear margin of 1 never
+  // widens it (no lead reaches 100 %).
+  xp::StereoRegistrationSettings settings;
+  e = GoodEvidence();
+  e.views[0].halvesApartMM = 1.4;
+  settings.maxHalvesApartMM = 1.5;
+  settings.maxHalvesApartClearPeakMM = 1.2;
+  EXPECT_TRUE(Codes(e, settings).empty());
+  settings = {};
+  settings.clearPeakMargin = 1.0;
+  e.views[0].halvesApartMM = 1.1;
+  EXPECT_EQ(Codes(e, settings), Codes_t{ xp::GateCode::HalvesDisagree });
+}
+
 TEST(QualityGate, NaNEvidenceFails)
 {
   xp::GateEvidence e = GoodEvidence();
@@ -181,6 +223,20 @@ TEST(QualityGate, InvalidLimitsAreRefusedAndCodesHaveStableNames)
   settings = {};
   settings.maxSearchDisagreementMM = 0.0; // one search
   EXPECT_NO_THROW(xp::ValidateGateLimits(settings));
+  settings = {};
+  settings.maxHalvesApartClearPeakMM = -1.0;
+  try
+  {
+    xp::ValidateGateLimits(settings);
+    ADD_FAILURE() << "a negative clear-peak halves limit was accepted";
+  }
+  catch (const xp::InputError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("maxHalvesApartClearPeakMM"), std::string::npos) << e.what();
+  }
+  settings = {};
+  settings.clearPeakMargin = std::nan("");
+  EXPECT_THROW(xp::ValidateGateLimits(settings), xp::InputError);
   EXPECT_NO_THROW(xp::ValidateGateLimits({}));
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::LowExplained), "low_explained");
   EXPECT_STREQ(xp::GateCodeName(xp::GateCode::AmbiguousPose), "ambiguous_pose");
