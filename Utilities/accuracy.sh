@@ -7,6 +7,8 @@
 # MATRIX_OUT=eval/NAME writes the matrix's cells to eval/NAME-CELL (default eval/matrix-CELL);
 # MATRIX_ONLY=REGEX runs only the cells whose names match it (e.g. '^pelvis3mm-');
 # MATRIX_SEED=N draws other trials and noise (default 11), to see a result is not the draw's;
+# MATRIX_KEEP=1 keeps each cell's folder: evaluate resumes from its trials.csv (trial k of a seed
+# is the same in any run), so a cell copied from a 10-trial run and run with TRIALS 30 gains 20;
 # MATRIX_GEOMETRY=FILE puts the matrix's imagers elsewhere (default the reference geometry; e.g.
 # Data/geometry/stereo-oblique-60.json, beams 60 degrees apart).
 # Needs build/bin/xpose, ../shared/data/ct/ (and plastimatch for the matrix); writes under eval/
@@ -49,7 +51,7 @@ cell() { # NAME TRIALS ARGS...
   shift 2
   [[ -z ${MATRIX_ONLY:-} || $name =~ $MATRIX_ONLY ]] || return 0
   local dir=${MATRIX_OUT:-eval/matrix}-$name
-  rm -rf "$dir"
+  [ "${MATRIX_KEEP:-0}" = 1 ] || rm -rf "$dir"
   "$xpose" evaluate --geometry "${MATRIX_GEOMETRY:-$geometry}" --approaches B --trials "$trials" --min-start-translation 1 --max-start-translation 20 \
     --max-start-rotation 5 --size 512x384 --seed "${MATRIX_SEED:-11}" "$@" "${matrixOptions[@]}" --out-dir "$dir" > "$dir.log" 2>&1 || { echo "| $name | evaluate failed: see $dir.log |"; return; }
   local wrong=0
