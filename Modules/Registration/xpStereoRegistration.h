@@ -180,8 +180,8 @@ struct StereoRegistrationSettings
    *  clearPeakMargin): another anatomy costs both checks at once, noise mostly the halves. On
    *  seed 14's stored matrix runs 25 results failed on halves 1.01-1.24 mm apart alone with
    *  leads of 0.174-0.314, all within 0.86 mm of the truth; a pelvis stretched by 10 % that
-   *  failed on its halves alone led by 0.161 at most, its halves 2.67 mm apart or more where it
-   *  led by 0.14 or more (Algorithms.md, "A verdict...", 3). */
+   *  failed on its halves alone led by up to 0.176, its halves 2.67 mm apart or more where it
+   *  led by 0.14 or more: the halves' 1.25 mm keeps it out (Algorithms.md, "A verdict...", 3). */
   double maxHalvesApartClearPeakMM = 1.25;
   double clearPeakMargin = 0.17;
   /** The halves' 2D searches start with steps of this size (mm at the isocentre). The halves of
