@@ -53,6 +53,10 @@ void CheckRegistrationSettings(const StereoRegistrationSettings& settings)
   CheckLimit(settings.maxSearchDisagreementMM, 0.0, 100.0, "--max-search-apart-mm");
   CheckLimit(settings.maxSearchDisagreementDegrees, 0.001, 45.0, "--max-search-apart-deg");
   CheckLimit(settings.maxRefinedApartDegrees, 0.001, 45.0, "--max-refined-apart-deg");
+  CheckLimit(settings.maxHalvesApartMM, 0.01, 100.0, "--max-halves-apart-mm");
+  CheckLimit(settings.maxHalvesApartClearPeakMM, 0.01, 100.0, "--max-halves-apart-clear-peak-mm");
+  CheckLimit(settings.minPeakMargin, -1.0, 1.0, "--min-peak-margin");
+  CheckLimit(settings.clearPeakMargin, -1.0, 1.0, "--clear-peak-margin");
 }
 
 } // namespace xp
