@@ -9,6 +9,8 @@
 # MATRIX_SEED=N draws other trials and noise (default 11), to see a result is not the draw's;
 # MATRIX_KEEP=1 keeps each cell's folder: evaluate resumes from its trials.csv (trial k of a seed
 # is the same in any run), so a cell copied from a 10-trial run and run with TRIALS 30 gains 20;
+# evaluate refuses a folder whose evaluation.json holds other settings (copy trials.csv alone only
+# from a run of the same settings);
 # MATRIX_GEOMETRY=FILE puts the matrix's imagers elsewhere (default the reference geometry; e.g.
 # Data/geometry/stereo-oblique-60.json, beams 60 degrees apart).
 # Needs build/bin/xpose, ../shared/data/ct/ (and plastimatch for the matrix); writes under eval/

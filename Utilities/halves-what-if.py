@@ -8,7 +8,9 @@ Utilities/accuracy.sh matrix writes them) and lists the trials that failed on th
 StereoRegistrationSettings::maxHalvesApartClearPeakMM and clearPeakMargin pass. Then, for the
 wrong- and near-anatomy cells (named wrong-* or near-*), the trials failed on their halves alone
 whatever their limits, with their leads: how far such anatomy stays from the rule.
-A trial that several runs share (the same cell, trial and mTRE) is listed once.
+A trial that several runs share (the same cell, trial and mTRE) is listed once. A halves failure
+is told by its message ("its two halves ..."); the tool stops if none of the failed trials' reasons
+names the halves although their halves lie beyond every limit.
 
 Usage: python3 Utilities/halves-what-if.py [--clear-halves-mm 1.25] [--clear-peak-margin 0.17] PREFIX...
   e.g. python3 Utilities/halves-what-if.py eval/m20- eval/pl-
@@ -46,7 +48,11 @@ def main():
     parser.add_argument("prefixes", nargs="+")
     args = parser.parse_args()
     passed, wrong, seen = [], [], set()
+    named = beyond = 0  # trials whose reasons name the halves; failed trials with halves beyond any limit
     for prefix, cell, row in trials(args.prefixes):
+        named += "two halves" in row.get("reasons", "")
+        beyond += row.get("status") != "ok" and bool(row.get("halves_apart_mm")) and \
+            max(float(x) for x in row["halves_apart_mm"].split()) > max(args.clear_halves_mm, 1.0)
         halves = halves_alone(row)
         if halves is None:
             continue
@@ -60,6 +66,9 @@ def main():
             wrong.append(entry)
         if halves <= args.clear_halves_mm and lead >= args.clear_peak_margin:
             passed.append(entry)
+    if beyond and not named:
+        raise SystemExit("halves-what-if: failed trials have halves beyond every limit but no reason names "
+                         "'two halves': has the gate's halves_disagree message changed?")
     print(f"Failed on their halves alone, halves <= {args.clear_halves_mm} mm and a lead >= {args.clear_peak_margin}:")
     print("| run | cell | trial | mTRE (mm) | halves apart (mm) | held-out lead | anatomy |")
     print("|---|---|---|---|---|---|---|")

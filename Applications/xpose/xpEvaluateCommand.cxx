@@ -72,7 +72,9 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"gate\": {\"min_explained\": " << o.settings.minExplained << ", \"max_view_residual_mm\": "
        << o.settings.maxViewResidual << ", \"max_uncovered\": " << o.settings.maxUncovered << ", \"max_search_apart_mm\": "
        << o.settings.maxSearchDisagreementMM << ", \"max_search_apart_deg\": " << o.settings.maxSearchDisagreementDegrees
-       << ", \"max_refined_apart_deg\": " << o.settings.maxRefinedApartDegrees << "}"
+       << ", \"max_refined_apart_deg\": " << o.settings.maxRefinedApartDegrees << ", \"min_peak_margin\": " << o.settings.minPeakMargin
+       << ", \"max_halves_apart_mm\": " << o.settings.maxHalvesApartMM << ", \"max_halves_apart_clear_peak_mm\": "
+       << o.settings.maxHalvesApartClearPeakMM << ", \"clear_peak_margin\": " << o.settings.clearPeakMargin << "}"
        << ",\n  \"table\": \"" << (o.settings.chooseTable ? "chosen by the X-rays" : o.removeTable ? "removed" : "kept") << "\""
        << ",\n  \"x_rays\": " << model
        << ",\n  \"success_mtre_mm\": " << o.successMTRE << ",\n  \"target_region\": \"CT voxels above " << TargetHU
