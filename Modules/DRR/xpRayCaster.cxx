@@ -384,58 +384,81 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray, const s
   return sum * step * planeRay.dt * volume.Quantum();
 }
 
-/** Eight rays sampled together, lane r for ray r; lanes with first >= last take no samples. */
+/** Sixteen rays sampled together, lane r for ray r (a tile's row); lanes with first >= last take
+ *  no samples. AVX-512 samples all sixteen at once, AVX2 eight at a time. */
 struct RayPacket
 {
-  static constexpr int Size = 8;
+  static constexpr int Size = 16;
   PlaneRay rays[Size];
   int first[Size] = {}; ///< first sample j in an occupied block
   int last[Size] = {};  ///< one past the last
 };
 
 /**
- * The line integrals (in volume steps) of a packet's rays on `axis` stepping in direction `sa`,
- * with AVX2 gathers; lanes of other rays get 0. One iteration samples the same voxel plane for
- * all eight rays: neighbours on the detector, they read a few cache lines that they share, where
- * one ray at a time would stream each of its lines through the cache once per ray. The samples
- * are PlaneSample's (same planes, voxels and weights, up to FMA rounding); in empty blocks
- * between occupied ones they are 0.
+ * The planes ahead whose lines are fetched while one is sampled: a plane's lines are far from the
+ * last one's (a slice or a row apart), and a gather's misses wait for memory one after another.
+ * Fetching them a few planes ahead lets them overlap; much farther ahead, they are evicted again
+ * before use (Performance.md, "The packets' gathers").
  */
-__attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packet, int axis, int sa, int step, float* sums)
+constexpr int PrefetchPlanes = 3;
+
+/**
+ * The constants of `Lanes` lanes of a packet from lane0 on, for sampling its rays on `axis` in
+ * direction `sa`: sample j of ray r lies on plane m = m0_r + sa j, so with q = sa m every lane's
+ * j = q - sa m0_r, and a lane samples while beforeFirst < j < last. Lanes of other rays take none.
+ */
+template <int Lanes>
+struct PacketLanes
 {
-  constexpr int Size = RayPacket::Size;
-  // The planes ahead whose lines are fetched while this one is sampled: a plane's lines are far
-  // from the last one's (a slice or a row apart), and without it every plane waits for memory.
-  constexpr int PrefetchPlanes = 12;
-  alignas(32) int planeOfFirst[Size], beforeFirst[Size], last[Size];
-  alignas(32) float b0[Size], db[Size], c0[Size], dc[Size];
-  // Sample j of ray r lies on plane m = m0_r + sa j; with q = sa m, j = q - sa m0_r in every lane.
+  alignas(64) int planeOfFirst[Lanes], beforeFirst[Lanes], last[Lanes];
+  alignas(64) float b0[Lanes], db[Lanes], c0[Lanes], dc[Lanes];
   int qBegin = std::numeric_limits<int>::max(), qEnd = std::numeric_limits<int>::min();
-  const PlaneRun* common = nullptr;
-  for (int r = 0; r < Size; ++r)
+  const PlaneRun* common = nullptr; ///< a sampling lane's planes (strides, bounds); null when none samples
+
+  PacketLanes(const RayPacket& packet, int lane0, int axis, int sa)
   {
-    const PlaneRay& ray = packet.rays[r];
-    const bool mine = ray.axis == axis && ray.planes.sa == sa && packet.first[r] < packet.last[r];
-    planeOfFirst[r] = mine ? sa * ray.planes.m0 : 0;
-    beforeFirst[r] = mine ? packet.first[r] - 1 : 0;
-    last[r] = mine ? packet.last[r] : 0;
-    b0[r] = ray.planes.b0, db[r] = ray.planes.db, c0[r] = ray.planes.c0, dc[r] = ray.planes.dc;
-    if (mine)
+    for (int r = 0; r < Lanes; ++r)
     {
-      common = &ray.planes;
-      qBegin = std::min(qBegin, planeOfFirst[r] + packet.first[r]);
-      qEnd = std::max(qEnd, planeOfFirst[r] + packet.last[r]);
+      const int n = lane0 + r;
+      const PlaneRun& planes = packet.rays[n].planes;
+      const bool mine = packet.rays[n].axis == axis && planes.sa == sa && packet.first[n] < packet.last[n];
+      this->planeOfFirst[r] = mine ? sa * planes.m0 : 0;
+      this->beforeFirst[r] = mine ? packet.first[n] - 1 : 0;
+      this->last[r] = mine ? packet.last[n] : 0;
+      this->b0[r] = planes.b0, this->db[r] = planes.db, this->c0[r] = planes.c0, this->dc[r] = planes.dc;
+      if (mine)
+      {
+        this->common = &planes;
+        this->qBegin = std::min(this->qBegin, this->planeOfFirst[r] + packet.first[n]);
+        this->qEnd = std::max(this->qEnd, this->planeOfFirst[r] + packet.last[n]);
+      }
     }
   }
+};
+
+/**
+ * The line integrals (in volume steps) of eight of a packet's rays from lane0 on, on `axis`
+ * stepping in direction `sa`, with AVX2 gathers; lanes of other rays get 0. One iteration samples
+ * the same voxel plane for all eight rays: neighbours on the detector, they read a few cache lines
+ * that they share, where one ray at a time would stream each of its lines through the cache once
+ * per ray. The samples are PlaneSample's (same planes, voxels and weights, up to FMA rounding); in
+ * empty blocks between occupied ones they are 0.
+ */
+__attribute__((target("avx2,fma"))) void SamplePacketAVX2(
+  const RayPacket& packet, int lane0, int axis, int sa, int step, float* sums)
+{
+  const PacketLanes<8> lanes(packet, lane0, axis, sa);
+  const PlaneRun* common = lanes.common;
   if (!common)
   {
-    std::fill(sums, sums + Size, 0.0f);
+    std::fill(sums, sums + 8, 0.0f);
     return;
   }
-  const __m256i vPlaneOfFirst = _mm256_load_si256(reinterpret_cast<const __m256i*>(planeOfFirst));
-  const __m256i vBeforeFirst = _mm256_load_si256(reinterpret_cast<const __m256i*>(beforeFirst));
-  const __m256i vLast = _mm256_load_si256(reinterpret_cast<const __m256i*>(last));
-  const __m256 vb0 = _mm256_load_ps(b0), vdb = _mm256_load_ps(db), vc0 = _mm256_load_ps(c0), vdc = _mm256_load_ps(dc);
+  const __m256i vPlaneOfFirst = _mm256_load_si256(reinterpret_cast<const __m256i*>(lanes.planeOfFirst));
+  const __m256i vBeforeFirst = _mm256_load_si256(reinterpret_cast<const __m256i*>(lanes.beforeFirst));
+  const __m256i vLast = _mm256_load_si256(reinterpret_cast<const __m256i*>(lanes.last));
+  const __m256 vb0 = _mm256_load_ps(lanes.b0), vdb = _mm256_load_ps(lanes.db), vc0 = _mm256_load_ps(lanes.c0),
+               vdc = _mm256_load_ps(lanes.dc);
   const __m256i low16 = _mm256_set1_epi32(0xFFFF), none = _mm256_setzero_si256();
   const __m256 zero = _mm256_setzero_ps(), upperB = _mm256_set1_ps(common->upperB),
                upperC = _mm256_set1_ps(common->upperC);
@@ -445,7 +468,7 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packe
   const int planeStride = sa * common->strideA; // m strideA = q planeStride
   __m256 sum = _mm256_setzero_ps();
   // Only the planes that are multiples of step (q = sa m is one where m is).
-  for (int q = FirstMultipleFrom(qBegin, step); q < qEnd; q += step)
+  for (int q = FirstMultipleFrom(lanes.qBegin, step); q < lanes.qEnd; q += step)
   {
     const __m256i j = _mm256_sub_epi32(_mm256_set1_epi32(q), vPlaneOfFirst);
     // Lanes outside their ray's samples gather nothing (their plane may lie outside the volume).
@@ -457,8 +480,8 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packe
     const __m256 fb = _mm256_sub_ps(b, _mm256_cvtepi32_ps(ib)), fc = _mm256_sub_ps(c, _mm256_cvtepi32_ps(ic));
     const __m256i base =
       _mm256_add_epi32(_mm256_add_epi32(_mm256_set1_epi32(q * planeStride), ib), _mm256_mullo_epi32(ic, strideC));
-    // The lines of the packet's first and last ray PrefetchPlanes ahead. Addresses in integers:
-    // past the volume's end they are hints, which never fault.
+    // The lines of the first and last ray PrefetchPlanes ahead. Addresses in integers: past the
+    // volume's end they are hints, which never fault.
     const intptr_t aheadFirst = _mm256_cvtsi256_si32(base) + PrefetchPlanes * planeStride;
     const intptr_t aheadLast = _mm256_extract_epi32(base, 7) + PrefetchPlanes * planeStride;
     for (const intptr_t voxel : { aheadFirst, aheadFirst + common->strideC, aheadLast, aheadLast + common->strideC })
@@ -477,13 +500,71 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(const RayPacket& packe
   _mm256_storeu_ps(sums, sum);
 }
 
+/**
+ * SamplePacketAVX2 for all sixteen rays at once with AVX-512 gathers: the same samples, weights and
+ * order of sums per lane, so the same integrals to the bit (lanes outside their samples add +0).
+ */
+__attribute__((target("avx512f"))) void SamplePacketAVX512(const RayPacket& packet, int axis, int sa, int step, float* sums)
+{
+  const PacketLanes<16> lanes(packet, 0, axis, sa);
+  const PlaneRun* common = lanes.common;
+  if (!common)
+  {
+    std::fill(sums, sums + 16, 0.0f);
+    return;
+  }
+  const __m512i vPlaneOfFirst = _mm512_load_si512(lanes.planeOfFirst);
+  const __m512i vBeforeFirst = _mm512_load_si512(lanes.beforeFirst);
+  const __m512i vLast = _mm512_load_si512(lanes.last);
+  const __m512 vb0 = _mm512_load_ps(lanes.b0), vdb = _mm512_load_ps(lanes.db), vc0 = _mm512_load_ps(lanes.c0),
+               vdc = _mm512_load_ps(lanes.dc);
+  const __m512i low16 = _mm512_set1_epi32(0xFFFF), none = _mm512_setzero_si512();
+  const __m512 zero = _mm512_setzero_ps(), upperB = _mm512_set1_ps(common->upperB),
+               upperC = _mm512_set1_ps(common->upperC);
+  const __m512i strideC = _mm512_set1_epi32(common->strideC);
+  const int* words = reinterpret_cast<const int*>(common->voxels);
+  const intptr_t origin = reinterpret_cast<intptr_t>(common->voxels);
+  const int planeStride = sa * common->strideA;
+  __m512 sum = _mm512_setzero_ps();
+  for (int q = FirstMultipleFrom(lanes.qBegin, step); q < lanes.qEnd; q += step)
+  {
+    const __m512i j = _mm512_sub_epi32(_mm512_set1_epi32(q), vPlaneOfFirst);
+    const __mmask16 active = _mm512_cmpgt_epi32_mask(j, vBeforeFirst) & _mm512_cmpgt_epi32_mask(vLast, j);
+    const __m512 jf = _mm512_cvtepi32_ps(j);
+    const __m512 b = _mm512_min_ps(_mm512_max_ps(_mm512_fmadd_ps(jf, vdb, vb0), zero), upperB);
+    const __m512 c = _mm512_min_ps(_mm512_max_ps(_mm512_fmadd_ps(jf, vdc, vc0), zero), upperC);
+    const __m512i ib = _mm512_cvttps_epi32(b), ic = _mm512_cvttps_epi32(c);
+    const __m512 fb = _mm512_sub_ps(b, _mm512_cvtepi32_ps(ib)), fc = _mm512_sub_ps(c, _mm512_cvtepi32_ps(ic));
+    const __m512i base =
+      _mm512_add_epi32(_mm512_add_epi32(_mm512_set1_epi32(q * planeStride), ib), _mm512_mullo_epi32(ic, strideC));
+    const intptr_t aheadFirst = _mm_cvtsi128_si32(_mm512_castsi512_si128(base)) + PrefetchPlanes * planeStride;
+    const intptr_t aheadLast =
+      _mm_extract_epi32(_mm512_extracti32x4_epi32(base, 3), 3) + PrefetchPlanes * planeStride;
+    for (const intptr_t voxel : { aheadFirst, aheadFirst + common->strideC, aheadLast, aheadLast + common->strideC })
+    {
+      _mm_prefetch(reinterpret_cast<const char*>(origin + voxel * intptr_t(sizeof(uint16_t))), _MM_HINT_T0);
+    }
+    const __m512i w0 = _mm512_mask_i32gather_epi32(none, active, base, words, 2);
+    const __m512i w1 = _mm512_mask_i32gather_epi32(none, active, _mm512_add_epi32(base, strideC), words, 2);
+    const __m512 v00 = _mm512_cvtepi32_ps(_mm512_and_si512(w0, low16)), v10 = _mm512_cvtepi32_ps(_mm512_srli_epi32(w0, 16));
+    const __m512 v01 = _mm512_cvtepi32_ps(_mm512_and_si512(w1, low16)), v11 = _mm512_cvtepi32_ps(_mm512_srli_epi32(w1, 16));
+    const __m512 low = _mm512_fmadd_ps(fb, _mm512_sub_ps(v10, v00), v00);
+    const __m512 high = _mm512_fmadd_ps(fb, _mm512_sub_ps(v11, v01), v01);
+    sum = _mm512_add_ps(sum, _mm512_fmadd_ps(fc, _mm512_sub_ps(high, low), low));
+  }
+  _mm512_storeu_ps(sums, sum);
+}
+
 const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f");
 
 /**
  * Line integrals of a packet's rays into integrals[0..Size-1]: one pass per distinct (axis,
- * direction) among its rays, one pass except where the dominant axis changes across the panel.
+ * direction) among its rays, one pass except where the dominant axis changes across the panel;
+ * `wide`, all sixteen lanes in one AVX-512 pass, else two AVX2 passes of eight.
  */
-void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, const std::array<int, 3>& planeSteps, float* integrals)
+void TracePacket(
+  const AttenuationVolume& volume, const IndexRay* rays, const std::array<int, 3>& planeSteps, bool wide, float* integrals)
 {
   RayPacket packet;
   for (int r = 0; r < RayPacket::Size; ++r)
@@ -516,7 +597,15 @@ void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, const st
     }
     float sums[RayPacket::Size];
     const int step = planeSteps[ray.axis];
-    SamplePacketAVX2(packet, ray.axis, ray.planes.sa, step, sums);
+    if (wide)
+    {
+      SamplePacketAVX512(packet, ray.axis, ray.planes.sa, step, sums);
+    }
+    else
+    {
+      SamplePacketAVX2(packet, 0, ray.axis, ray.planes.sa, step, sums);
+      SamplePacketAVX2(packet, 8, ray.axis, ray.planes.sa, step, sums + 8);
+    }
     for (int s = r; s < RayPacket::Size; ++s)
     {
       if (packet.rays[s].axis == ray.axis && packet.rays[s].planes.sa == ray.planes.sa)
@@ -849,7 +938,8 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
     settings.method == RayCastMethod::Trilinear && settings.stepSize <= 0.0 && settings.vectorized && HaveAVX2;
   if (packets)
   {
-    // Eight neighbours of a tile at a time (a tile's rows are 16 wide); the last packet is
+    const bool wide = settings.wideVectors && HaveAVX512;
+    // A tile's row (16 wide) at a time; the last packet is
     // filled up with copies of its last ray.
     const long long packetCount = (traced + RayPacket::Size - 1) / RayPacket::Size;
     ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
@@ -864,7 +954,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
           {
             rays[r] = rayOf(order[std::min(firstRay + r, traced - 1)]);
           }
-          TracePacket(volume, rays, settings.planeSteps, integrals);
+          TracePacket(volume, rays, settings.planeSteps, wide, integrals);
           for (long long r = 0; r < std::min<long long>(RayPacket::Size, traced - firstRay); ++r)
           {
             lineIntegrals[order[firstRay + r]] = integrals[r];
@@ -996,6 +1086,11 @@ std::string ComputeDeviceDescription(ComputeDevice device)
 bool HasVectorRayCaster()
 {
   return HaveAVX2;
+}
+
+bool HasWideVectorRayCaster()
+{
+  return HaveAVX512;
 }
 
 void LineIntegralsTo12Bit(const float* lineIntegrals, const uint8_t* mask, long long count, uint16_t* transmission)

@@ -95,11 +95,17 @@ struct VTKXPDRR_EXPORT RayCastSettings
    */
   std::array<int, 3> planeSteps{ { 1, 1, 1 } };
   /**
-   * Joseph's scheme on eight neighbouring rays at a time with AVX2, where the CPU has it (see
+   * Joseph's scheme on neighbouring rays together with AVX2, where the CPU has it (see
    * HasVectorRayCaster). false: one ray at a time in portable code, the reference that the vector
    * path is tested against. Both give the same samples; sums differ by float rounding only.
    */
   bool vectorized = true;
+  /**
+   * With `vectorized`: sixteen rays at a time with AVX-512 where the CPU has it (see
+   * HasWideVectorRayCaster), else eight with AVX2. false: eight with AVX2 always. Both give the
+   * same integrals to the bit; the setting is there to compare them.
+   */
+  bool wideVectors = true;
   /** CUDA: Joseph's scheme only (method Trilinear, stepSize 0); volumes and pixel lists stay on
    *  the GPU between calls while the caller keeps them. */
   ComputeDevice device = ComputeDevice::CPU;
@@ -110,6 +116,9 @@ struct VTKXPDRR_EXPORT RayCastSettings
 
 /** Whether this CPU runs the vectorised ray caster (AVX2 and FMA). */
 VTKXPDRR_EXPORT bool HasVectorRayCaster();
+
+/** Whether this CPU runs the vectorised ray caster on sixteen rays at a time (AVX-512F). */
+VTKXPDRR_EXPORT bool HasWideVectorRayCaster();
 
 /**
  * The pixels a DRR traces, in the order the ray caster visits them: tiles of 16 x 8, so that

@@ -323,6 +323,57 @@ TEST(RayCasterAnalytic, VectorPacketsMatchOneRayAtATime)
   }
 }
 
+TEST(RayCasterAnalytic, SixteenLanesGiveEightLanesIntegralsToTheBit)
+{
+  if (!xp::HasWideVectorRayCaster())
+  {
+    GTEST_SKIP() << "this CPU has no AVX-512: the ray caster's sixteen lanes are not used here";
+  }
+  // Two objects with empty blocks between them, lit from an oblique source so that the dominant
+  // axis changes across the panel; masked pixels so that packets straddle rows; every plane and
+  // every second one.
+  const xp::AttenuationVolume volume = MakeVolume(128,
+    [](const Eigen::Vector3d& p)
+    {
+      const double texture = 1.0 + 0.5 * std::sin(0.9 * p[0] + 0.4 * p[2]) * std::cos(0.3 * p[1]);
+      const bool sphere = (p - Eigen::Vector3d(-40, 10, 0)).norm() < 14.0;
+      const bool box = (p - Eigen::Vector3d(35, -5, 8)).cwiseAbs().maxCoeff() < 11.0;
+      return sphere || box ? texture : 0.0;
+    });
+  const Eigen::Vector3d diagonal = Eigen::Vector3d(1, -1, 0.2).normalized();
+  xp::DetectorGrid grid;
+  grid.columns = 71;
+  grid.rows = 43;
+  grid.columnStep = 6.0 * diagonal;
+  grid.rowStep = Eigen::Vector3d(0.1, 0, 1.2);
+  grid.origin = Eigen::Vector3d(350, 350, 0) - 35.0 * grid.columnStep - 21.0 * grid.rowStep;
+  const Eigen::Vector3d source(-500, -500, 10);
+  const size_t n = static_cast<size_t>(grid.columns) * grid.rows;
+  std::vector<uint8_t> mask(n);
+  for (size_t i = 0; i < n; ++i)
+    mask[i] = (i * 7) % 5 != 2;
+  for (const int step : { 1, 2 })
+  {
+    for (const uint8_t* pixels : { static_cast<const uint8_t*>(nullptr), static_cast<const uint8_t*>(mask.data()) })
+    {
+      std::vector<float> wide(n, -1.0f), narrow(n, -2.0f);
+      xp::RayCastSettings settings;
+      settings.planeSteps = { step, step, step };
+      xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, pixels, wide.data(), settings);
+      settings.wideVectors = false;
+      xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, pixels, narrow.data(), settings);
+      int nonZero = 0, differ = 0;
+      for (size_t i = 0; i < n; ++i)
+      {
+        differ += wide[i] != narrow[i];
+        nonZero += wide[i] > 0.0f;
+      }
+      EXPECT_EQ(differ, 0) << "plane step " << step << (pixels ? ", masked" : "");
+      EXPECT_GT(nonZero, static_cast<int>(n / 10)) << "the rays must cross the objects";
+    }
+  }
+}
+
 TEST(RayCasterAnalytic, PlaneStepsSampleEveryNthPlaneWeighingItsLength)
 {
   // Slabs one voxel thick across each axis in turn, every second plane dense: with step 2 a ray
