@@ -11,6 +11,11 @@
 #   made by the last one); an entry DIR:OPTION[,OPTION...] adds its own register options (CLI11's
 #   --name=value form), so that one build's two settings take turns: BUILDS="build:--x=false
 #   build:--x=true". SIZE 512x384, PRESET clinical by default.
+# PRESET plastimatch[:DETECTOR]: X-rays from a renderer outside the project instead, `plastimatch
+#   drr` through `xpose evaluate --scenario plastimatch --write-xrays` at SIZE (DETECTOR linear12
+#   by default), at TRIALS misalignments (10 by default) drawn with SEED (1), 5-25 mm and up to 5
+#   degrees as evaluate draws them; each pose is a trial's truth, rounded in the table's first
+#   column. Needs plastimatch (apt-get install plastimatch).
 set -euo pipefail
 ct=$1 geometry=$2 size=${3:-512x384} preset=${4:-clinical}
 shift $(($# < 4 ? $# : 4))
@@ -24,9 +29,33 @@ run() { # BUILD_DIR_OR_EMPTY ARGS...: xpose from a build folder, or $XPOSE
 builds=(${BUILDS:-""})
 # Five fixed misalignments, 5-16 mm and up to 3 degrees, in room terms (mm, degrees); POSES overrides.
 poses=${POSES:-"4,-3,2,1,-1,2 -8,5,-10,-2,3,1 12,-6,4,2,2,-3 -3,9,6,-1,-2,-1 6,2,-14,3,1,2"}
+if [[ $preset == plastimatch* ]]; then
+  detector=linear12
+  [[ $preset == plastimatch:* ]] && detector=${preset#plastimatch:}
+  run "${builds[-1]}" evaluate --ct "$ct" --geometry "$geometry" --approaches B --trials "${TRIALS:-10}" --seed "${SEED:-1}" \
+    --size "$size" --scenario plastimatch --detector "$detector" --write-xrays --out-dir "$work/pm" > "$work/pm.log" 2>&1 ||
+    { echo "register-wall.sh: xpose evaluate could not make the plastimatch X-rays:" >&2; tail -5 "$work/pm.log" >&2; exit 1; }
+  geometry=$work/pm/xrays/geometry.json
+  # One folder per trial, named by its pose, as `xpose simulate` would write it.
+  poses=$(python3 - "$work" <<'PY'
+import csv, json, os, shutil, sys
+work = sys.argv[1]
+for row in csv.DictReader(open(f"{work}/pm/trials.csv")):
+    t = [float(row[f"initial_{k}"]) for k in ("tx", "ty", "tz")]
+    r = {k: float(row[f"initial_{k}"]) for k in ("pitch", "roll", "yaw")}
+    pose = ",".join(f"{v:.1f}" for v in t + list(r.values()))
+    os.makedirs(f"{work}/{pose}/sim")
+    for view in "AB":
+        shutil.copy(f"{work}/pm/xrays/trial_{row['trial']}_{view}.png", f"{work}/{pose}/sim/xray_{view}.png")
+    json.dump({"misalignment": {"translation_mm": t, "rotation_deg": r}}, open(f"{work}/{pose}/sim/truth.json", "w"))
+    print(pose)
+PY
+)
+fi
 for pose in $poses; do
   dir="$work/$pose"
-  run "${builds[-1]}" simulate --ct "$ct" --geometry "$geometry" --pose "$pose" --preset "$preset" --out-dir "$dir/sim" > "$dir.sim.log" 2>&1
+  [ -d "$dir/sim" ] ||
+    run "${builds[-1]}" simulate --ct "$ct" --geometry "$geometry" --pose "$pose" --preset "$preset" --out-dir "$dir/sim" > "$dir.sim.log" 2>&1
   for b in "${!builds[@]}"; do
     start=$(date +%s%N)
     entry=${builds[$b]} own=()
