@@ -501,10 +501,18 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(
 }
 
 /**
- * SamplePacketAVX2 for all sixteen rays at once with AVX-512 gathers: the same samples, weights and
- * order of sums per lane, so the same integrals to the bit (lanes outside their samples add +0).
+ * SamplePacketAVX2 for all sixteen rays at once with AVX-512: the same samples, weights and order
+ * of sums per lane, so the same integrals to the bit (lanes outside their samples add +0). Where
+ * the active lanes' voxels on a plane lie in one or two neighbouring c rows, within 31 voxels
+ * along b of the first one's (the common case: a packet is a run of neighbouring pixels of one
+ * detector row), each of those rows and the one above is read with two 64-byte loads and a word
+ * permutation, instead of two sixteen-element gathers, which cost about as much as the rest of
+ * the sample together (Performance.md, "The packets' gathers"). Elsewhere (a masked packet's lanes
+ * in rows of the panel far apart, a volume's first or last voxels), the gathers.
+ * `voxelCount` is the length of the voxel array, two words of slack included.
  */
-__attribute__((target("avx512f"))) void SamplePacketAVX512(const RayPacket& packet, int axis, int sa, int step, float* sums)
+__attribute__((target("avx512f,avx512bw"))) void SamplePacketAVX512(
+  const RayPacket& packet, int axis, int sa, int step, long long voxelCount, float* sums)
 {
   const PacketLanes<16> lanes(packet, 0, axis, sa);
   const PlaneRun* common = lanes.common;
@@ -523,8 +531,14 @@ __attribute__((target("avx512f"))) void SamplePacketAVX512(const RayPacket& pack
                upperC = _mm512_set1_ps(common->upperC);
   const __m512i strideC = _mm512_set1_epi32(common->strideC);
   const int* words = reinterpret_cast<const int*>(common->voxels);
+  const uint16_t* voxels = common->voxels;
   const intptr_t origin = reinterpret_cast<intptr_t>(common->voxels);
   const int planeStride = sa * common->strideA;
+  // A lane's word offset d from the reference voxel r must satisfy -31 <= d <= 30: its pair of
+  // words (d + 31, d + 32) then lies in the 64 words from r - 31. The three rows' loads stay in
+  // the array where r - 31 >= 0 and r + 2 strideC + 33 <= voxelCount.
+  const __m512i reach = _mm512_set1_epi32(31), span = _mm512_set1_epi32(61);
+  const long long lastReference = voxelCount - 33 - 2LL * common->strideC;
   __m512 sum = _mm512_setzero_ps();
   for (int q = FirstMultipleFrom(lanes.qBegin, step); q < lanes.qEnd; q += step)
   {
@@ -544,8 +558,53 @@ __attribute__((target("avx512f"))) void SamplePacketAVX512(const RayPacket& pack
     {
       _mm_prefetch(reinterpret_cast<const char*>(origin + voxel * intptr_t(sizeof(uint16_t))), _MM_HINT_T0);
     }
-    const __m512i w0 = _mm512_mask_i32gather_epi32(none, active, base, words, 2);
-    const __m512i w1 = _mm512_mask_i32gather_epi32(none, active, _mm512_add_epi32(base, strideC), words, 2);
+    __m512i w0 = none, w1 = none;
+    if (active)
+    {
+      // Rows: the lowest active lane's c row (the first active lane's, or the one below it) and
+      // the next; offsets within the lowest row, from the first active lane's voxel there (the
+      // reference r).
+      const __m512i first = _mm512_set1_epi32(__builtin_ctz(active));
+      const __m512i icFirst = _mm512_permutexvar_epi32(first, ic);
+      const __mmask16 below = _mm512_mask_cmplt_epi32_mask(active, ic, icFirst);
+      const __m512i rowOffset =
+        _mm512_sub_epi32(ic, below ? _mm512_sub_epi32(icFirst, _mm512_set1_epi32(1)) : icFirst);
+      const __mmask16 second = _mm512_mask_cmpeq_epi32_mask(active, rowOffset, _mm512_set1_epi32(1));
+      const __mmask16 twoRows = _mm512_mask_cmple_epu32_mask(active, rowOffset, _mm512_set1_epi32(1));
+      const __m512i inLowest = _mm512_mask_sub_epi32(base, second, base, strideC);
+      const __m512i reference = _mm512_permutexvar_epi32(first, inLowest);
+      const __m512i d = _mm512_sub_epi32(inLowest, reference);
+      const long long r = _mm_cvtsi128_si32(_mm512_castsi512_si128(reference));
+      const __mmask16 near = _mm512_mask_cmple_epu32_mask(active, _mm512_add_epi32(d, reach), span);
+      if ((near & twoRows) == active && r >= 31 && r <= lastReference)
+      {
+        // Word i of a lane's element: the voxel d + 31 + i words after r - 31 in its row, as the
+        // gather's. Row k (0 to 2): the 64 words from r - 31 + k strideC.
+        const __m512i pair = _mm512_or_si512(
+          _mm512_add_epi32(d, reach), _mm512_slli_epi32(_mm512_add_epi32(d, _mm512_set1_epi32(32)), 16));
+        const uint16_t* row0 = voxels + r - 31;
+        const uint16_t* row1 = row0 + common->strideC;
+        const __m512i p0 = _mm512_permutex2var_epi16(_mm512_loadu_si512(row0), pair, _mm512_loadu_si512(row0 + 32));
+        const __m512i p1 = _mm512_permutex2var_epi16(_mm512_loadu_si512(row1), pair, _mm512_loadu_si512(row1 + 32));
+        if (!second)
+        {
+          w0 = _mm512_maskz_mov_epi32(active, p0);
+          w1 = _mm512_maskz_mov_epi32(active, p1);
+        }
+        else
+        {
+          const uint16_t* row2 = row1 + common->strideC;
+          const __m512i p2 = _mm512_permutex2var_epi16(_mm512_loadu_si512(row2), pair, _mm512_loadu_si512(row2 + 32));
+          w0 = _mm512_maskz_mov_epi32(active, _mm512_mask_blend_epi32(second, p0, p1));
+          w1 = _mm512_maskz_mov_epi32(active, _mm512_mask_blend_epi32(second, p1, p2));
+        }
+      }
+      else
+      {
+        w0 = _mm512_mask_i32gather_epi32(none, active, base, words, 2);
+        w1 = _mm512_mask_i32gather_epi32(none, active, _mm512_add_epi32(base, strideC), words, 2);
+      }
+    }
     const __m512 v00 = _mm512_cvtepi32_ps(_mm512_and_si512(w0, low16)), v10 = _mm512_cvtepi32_ps(_mm512_srli_epi32(w0, 16));
     const __m512 v01 = _mm512_cvtepi32_ps(_mm512_and_si512(w1, low16)), v11 = _mm512_cvtepi32_ps(_mm512_srli_epi32(w1, 16));
     const __m512 low = _mm512_fmadd_ps(fb, _mm512_sub_ps(v10, v00), v00);
@@ -556,7 +615,7 @@ __attribute__((target("avx512f"))) void SamplePacketAVX512(const RayPacket& pack
 }
 
 const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f");
+const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
 
 /**
  * Line integrals of a packet's rays into integrals[0..Size-1]: one pass per distinct (axis,
@@ -567,6 +626,8 @@ void TracePacket(
   const AttenuationVolume& volume, const IndexRay* rays, const std::array<int, 3>& planeSteps, bool wide, float* integrals)
 {
   RayPacket packet;
+  const Eigen::Vector3i& padded = volume.PaddedDimensions();
+  const long long voxelCount = static_cast<long long>(padded[0]) * padded[1] * padded[2] + 2;
   for (int r = 0; r < RayPacket::Size; ++r)
   {
     PlaneRay& planeRay = packet.rays[r];
@@ -599,7 +660,7 @@ void TracePacket(
     const int step = planeSteps[ray.axis];
     if (wide)
     {
-      SamplePacketAVX512(packet, ray.axis, ray.planes.sa, step, sums);
+      SamplePacketAVX512(packet, ray.axis, ray.planes.sa, step, voxelCount, sums);
     }
     else
     {
