@@ -384,8 +384,8 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray, const s
   return sum * step * planeRay.dt * volume.Quantum();
 }
 
-/** Sixteen rays sampled together, lane r for ray r (a tile's row); lanes with first >= last take
- *  no samples. AVX-512 samples all sixteen at once, AVX2 eight at a time. */
+/** Sixteen rays sampled together, lane r for ray r (neighbours in a tile's row); lanes with first
+ *  >= last take no samples. AVX-512 samples all sixteen at once, AVX2 eight at a time. */
 struct RayPacket
 {
   static constexpr int Size = 16;
@@ -1000,8 +1000,8 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   if (packets)
   {
     const bool wide = settings.wideVectors && HaveAVX512;
-    // A tile's row (16 wide) at a time; the last packet is
-    // filled up with copies of its last ray.
+    // Sixteen consecutive pixels of the list at a time (a quarter of a tile's row where none is
+    // masked); the last packet is filled up with copies of its last ray.
     const long long packetCount = (traced + RayPacket::Size - 1) / RayPacket::Size;
     ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
       [&](long long begin, long long end)
