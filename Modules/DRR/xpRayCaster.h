@@ -117,7 +117,7 @@ struct VTKXPDRR_EXPORT RayCastSettings
 /** Whether this CPU runs the vectorised ray caster (AVX2 and FMA). */
 VTKXPDRR_EXPORT bool HasVectorRayCaster();
 
-/** Whether this CPU runs the vectorised ray caster on sixteen rays at a time (AVX-512F). */
+/** Whether this CPU runs the vectorised ray caster on sixteen rays at a time (AVX-512 F and BW). */
 VTKXPDRR_EXPORT bool HasWideVectorRayCaster();
 
 /**
