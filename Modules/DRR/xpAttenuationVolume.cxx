@@ -145,7 +145,7 @@ void AttenuationVolume::Store(const HU* hounsfield, const uint8_t* keep, const E
   this->MinSpacing = this->CTIndexToCT.linear().colwise().norm().minCoeff();
   this->MaxSpacing = this->CTIndexToCT.linear().colwise().norm().maxCoeff();
   const size_t nx = this->Padded[0], nxy = nx * this->Padded[1];
-  this->Mu = AllocateVoxels(nxy * this->Padded[2] + 2);
+  this->Mu = AllocateVoxels(this->VoxelCount());
   // mu = muWater (1 + HU/1000) = scale (HU + 1000): exactly 0 for air, so empty blocks are
   // found; voxels below airThreshold (noise in the air around the patient) count as air.
   const double highestMu = this->Water / 1000.0 * std::max(0.0, highest + 1000.0);
@@ -172,7 +172,7 @@ void AttenuationVolume::Store(const HU* hounsfield, const uint8_t* keep, const E
 
   // The y-fastest copy, slice by slice.
   const size_t ny = this->Padded[1];
-  this->MuYFastest = AllocateVoxels(nxy * this->Padded[2] + 2);
+  this->MuYFastest = AllocateVoxels(this->VoxelCount());
   ParallelFor(0, this->Padded[2],
     [&](int k0, int k1)
     {

@@ -88,6 +88,11 @@ public:
   const uint16_t* Voxels() const { return this->Mu.get(); }
   /** The same voxels with y fastest, then x, then z: padded (x, y, z) at y + x * ny + z * nx * ny. */
   const uint16_t* VoxelsYFastest() const { return this->MuYFastest.get(); }
+  /** The length of Voxels() and of VoxelsYFastest(): the padded voxels and the two zeros after them. */
+  size_t VoxelCount() const
+  {
+    return static_cast<size_t>(this->Padded[0]) * this->Padded[1] * this->Padded[2] + 2;
+  }
   /** The voxels' owner, shared by copies: a GPU keeps its copy of the volume while this lives. */
   std::shared_ptr<const void> Storage() const { return this->Mu; }
   /** mu (1/mm) of one step of Voxels(). */

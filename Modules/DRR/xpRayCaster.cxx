@@ -396,9 +396,9 @@ struct RayPacket
 
 /**
  * The planes ahead whose lines are fetched while one is sampled: a plane's lines are far from the
- * last one's (a slice or a row apart), and a gather's misses wait for memory one after another.
- * Fetching them a few planes ahead lets them overlap; much farther ahead, they are evicted again
- * before use (Performance.md, "The packets' gathers").
+ * last one's (a slice or a row apart), and without the fetch every plane waits for memory. Three
+ * planes ahead measured fastest, twelve and more slower again (Performance.md, "The packets'
+ * gathers").
  */
 constexpr int PrefetchPlanes = 3;
 
@@ -509,7 +509,7 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(
  * permutation, instead of two sixteen-element gathers, which cost about as much as the rest of
  * the sample together (Performance.md, "The packets' gathers"). Elsewhere (a masked packet's lanes
  * in rows of the panel far apart, a volume's first or last voxels), the gathers.
- * `voxelCount` is the length of the voxel array, two words of slack included.
+ * `voxelCount` is the length of the voxel array (AttenuationVolume::VoxelCount).
  */
 __attribute__((target("avx512f,avx512bw"))) void SamplePacketAVX512(
   const RayPacket& packet, int axis, int sa, int step, long long voxelCount, float* sums)
@@ -626,8 +626,7 @@ void TracePacket(
   const AttenuationVolume& volume, const IndexRay* rays, const std::array<int, 3>& planeSteps, bool wide, float* integrals)
 {
   RayPacket packet;
-  const Eigen::Vector3i& padded = volume.PaddedDimensions();
-  const long long voxelCount = static_cast<long long>(padded[0]) * padded[1] * padded[2] + 2;
+  const long long voxelCount = static_cast<long long>(volume.VoxelCount());
   for (int r = 0; r < RayPacket::Size; ++r)
   {
     PlaneRay& planeRay = packet.rays[r];
@@ -1000,8 +999,8 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   if (packets)
   {
     const bool wide = settings.wideVectors && HaveAVX512;
-    // Sixteen consecutive pixels of the list at a time (a quarter of a tile's row where none is
-    // masked); the last packet is filled up with copies of its last ray.
+    // Sixteen consecutive pixels of the list at a time (a tile's row where none is masked); the
+    // last packet is filled up with copies of its last ray.
     const long long packetCount = (traced + RayPacket::Size - 1) / RayPacket::Size;
     ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
       [&](long long begin, long long end)

@@ -121,17 +121,16 @@ VTKXPDRR_EXPORT bool HasVectorRayCaster();
 VTKXPDRR_EXPORT bool HasWideVectorRayCaster();
 
 /**
- * The pixels a DRR traces, in the order the ray caster visits them: tiles of 64 x 2, so that
+ * The pixels a DRR traces, in the order the ray caster visits them: tiles of 16 x 8, so that
  * neighbouring rays, which read the same voxels, run together (packets of sixteen take
- * consecutive entries, mostly of one row, where the packet's lanes read one or two rows of
- * voxels; Performance.md, "The packets' gathers"); the list also spreads masked work evenly over
- * threads. It depends only on the panel size and the mask: a registration builds it once per mask
- * and renders every pose with it.
+ * consecutive entries: a tile's row where none is masked); the list also spreads masked work
+ * evenly over threads. It depends only on the panel size and the mask: a registration builds it
+ * once per mask and renders every pose with it.
  */
 class VTKXPDRR_EXPORT TracedPixels
 {
 public:
-  static constexpr int TileColumns = 64, TileRows = 2;
+  static constexpr int TileColumns = 16, TileRows = 8;
 
   /** All pixels of a columns x rows panel, or those whose `mask` value is non-zero. */
   TracedPixels(int columns, int rows, const uint8_t* mask);

@@ -14,8 +14,9 @@
 # PRESET plastimatch[:DETECTOR]: X-rays from a renderer outside the project instead, `plastimatch
 #   drr` through `xpose evaluate --scenario plastimatch --write-xrays` at SIZE (DETECTOR linear12
 #   by default), at TRIALS misalignments (10 by default) drawn with SEED (1) as evaluate draws
-#   them (up to 30 mm and 5 degrees per angle by default); each pose is a trial's truth, rounded in
-#   the table's first column. Needs plastimatch (apt-get install plastimatch).
+#   them (up to 30 mm and 5 degrees per angle by default; POSES does not apply); each pose is a
+#   trial's truth, rounded in the table's first column. Needs plastimatch (apt-get install
+#   plastimatch).
 set -euo pipefail
 ct=$1 geometry=$2 size=${3:-512x384} preset=${4:-clinical}
 shift $(($# < 4 ? $# : 4))
