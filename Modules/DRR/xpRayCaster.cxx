@@ -618,16 +618,17 @@ const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("
 const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
 
 /**
- * Line integrals of a packet's rays into integrals[0..Size-1]: one pass per distinct (axis,
- * direction) among its rays, one pass except where the dominant axis changes across the panel;
- * `wide`, all sixteen lanes in one AVX-512 pass, else two AVX2 passes of eight.
+ * Line integrals of a packet's `count` rays (at most Size) into integrals[0..count-1]: one pass
+ * per distinct (axis, direction) among its rays, one pass except where the dominant axis changes
+ * across the panel; `wide`, all sixteen lanes in one AVX-512 pass, else two AVX2 passes of eight.
+ * Lanes from `count` on take no samples.
  */
-void TracePacket(
-  const AttenuationVolume& volume, const IndexRay* rays, const std::array<int, 3>& planeSteps, bool wide, float* integrals)
+void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, int count, const std::array<int, 3>& planeSteps,
+  bool wide, float* integrals)
 {
   RayPacket packet;
   const long long voxelCount = static_cast<long long>(volume.VoxelCount());
-  for (int r = 0; r < RayPacket::Size; ++r)
+  for (int r = 0; r < count; ++r)
   {
     PlaneRay& planeRay = packet.rays[r];
     planeRay = SetUpPlaneRay(volume, rays[r]);
@@ -918,14 +919,18 @@ TracedPixels::TracedPixels(int columns, int rows, const uint8_t* mask)
   : PanelColumns(columns)
   , PanelRows(rows)
 {
+  static_assert(TileColumns <= PacketSize, "a tile's row must fit in a packet");
   auto pixels = std::make_shared<std::vector<int>>();
   pixels->reserve(static_cast<size_t>(columns) * rows);
   for (int tileRow = 0; tileRow < rows; tileRow += TileRows)
   {
     for (int tileColumn = 0; tileColumn < columns; tileColumn += TileColumns)
     {
+      // A tile's rows join the open packet while they fit whole and it holds fewer than two.
+      int packetRows = 0;
       for (int row = tileRow; row < std::min(tileRow + TileRows, rows); ++row)
       {
+        const size_t rowStart = pixels->size();
         for (int column = tileColumn; column < std::min(tileColumn + TileColumns, columns); ++column)
         {
           const int pixel = row * columns + column;
@@ -934,9 +939,22 @@ TracedPixels::TracedPixels(int columns, int rows, const uint8_t* mask)
             pixels->push_back(pixel);
           }
         }
+        const int inRow = static_cast<int>(pixels->size() - rowStart);
+        if (inRow == 0)
+        {
+          continue;
+        }
+        const int open = packetRows > 0 ? static_cast<int>(rowStart) - this->Packets.back() : 0;
+        if (packetRows == 0 || packetRows == 2 || open + inRow > PacketSize)
+        {
+          this->Packets.push_back(static_cast<int>(rowStart));
+          packetRows = 0;
+        }
+        ++packetRows;
       }
     }
   }
+  this->Packets.push_back(static_cast<int>(pixels->size()));
   this->Pixels = std::move(pixels);
 }
 
@@ -999,9 +1017,8 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   if (packets)
   {
     const bool wide = settings.wideVectors && HaveAVX512;
-    // Sixteen consecutive pixels of the list at a time (a tile's row where none is masked); the
-    // last packet is filled up with copies of its last ray.
-    const long long packetCount = (traced + RayPacket::Size - 1) / RayPacket::Size;
+    const std::vector<int>& starts = pixels.PacketStarts();
+    const long long packetCount = static_cast<long long>(starts.size()) - 1;
     ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
       [&](long long begin, long long end)
       {
@@ -1009,13 +1026,13 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
         float integrals[RayPacket::Size];
         for (long long p = begin; p < end; ++p)
         {
-          const long long firstRay = p * RayPacket::Size;
-          for (int r = 0; r < RayPacket::Size; ++r)
+          const int firstRay = starts[p], count = starts[p + 1] - starts[p];
+          for (int r = 0; r < count; ++r)
           {
-            rays[r] = rayOf(order[std::min(firstRay + r, traced - 1)]);
+            rays[r] = rayOf(order[firstRay + r]);
           }
-          TracePacket(volume, rays, settings.planeSteps, wide, integrals);
-          for (long long r = 0; r < std::min<long long>(RayPacket::Size, traced - firstRay); ++r)
+          TracePacket(volume, rays, count, settings.planeSteps, wide, integrals);
+          for (int r = 0; r < count; ++r)
           {
             lineIntegrals[order[firstRay + r]] = integrals[r];
           }

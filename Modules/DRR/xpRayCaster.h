@@ -122,10 +122,13 @@ VTKXPDRR_EXPORT bool HasWideVectorRayCaster();
 
 /**
  * The pixels a DRR traces, in the order the ray caster visits them: tiles of 16 x 8, so that
- * neighbouring rays, which read the same voxels, run together (packets of sixteen take
- * consecutive entries: a tile's row where none is masked); the list also spreads masked work
- * evenly over threads. It depends only on the panel size and the mask: a registration builds it
- * once per mask and renders every pose with it.
+ * neighbouring rays, which read the same voxels, run together; the list also spreads masked work
+ * evenly over threads. The vectorised caster takes them in packets of up to sixteen consecutive
+ * entries, each within one tile and at most two of its rows (a tile's row where none is masked):
+ * a packet's rays then read one or two neighbouring voxel rows of each plane, which loads serve,
+ * where a packet spanning a tile's last row and the next tile's first needs gathers
+ * (Performance.md, "Packets within a tile"). It depends only on the panel size and the mask: a
+ * registration builds it once per mask and renders every pose with it.
  */
 class VTKXPDRR_EXPORT TracedPixels
 {
@@ -139,6 +142,10 @@ public:
   int Rows() const { return this->PanelRows; }
   /** Pixel indices (row * Columns() + column), each below Columns() * Rows(). */
   const std::vector<int>& Order() const { return *this->Pixels; }
+  /** Where each packet begins in Order(), and a last entry Order().size(): packet p holds the
+   *  entries PacketStarts()[p] to PacketStarts()[p + 1] - 1, at most PacketSize of them. */
+  const std::vector<int>& PacketStarts() const { return this->Packets; }
+  static constexpr int PacketSize = 16;
   /** The list's owner, shared by copies: a GPU keeps its copy of the list while this lives. */
   std::shared_ptr<const void> Storage() const { return this->Pixels; }
 
@@ -146,6 +153,7 @@ private:
   int PanelColumns = 0;
   int PanelRows = 0;
   std::shared_ptr<const std::vector<int>> Pixels;
+  std::vector<int> Packets;
 };
 
 /**

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <set>
 #include <vector>
 
 namespace
@@ -263,6 +264,59 @@ TEST(RayCasterAnalytic, MaskedPixelsAreNotTracedAndValidOnesUnchanged)
   ASSERT_TRUE(mask[corner]);
   EXPECT_EQ(twelveBit[corner], 4095);
   EXPECT_EQ(twelveBit[2], 0) << "masked pixel";
+}
+
+// The vectorised caster's packets: every listed pixel once, in the list's order, at most sixteen
+// to a packet, never two tiles and never more than two of a tile's rows, a row never split.
+TEST(TracedPixels, PacketsStayWithinATileAndTwoOfItsRows)
+{
+  constexpr int Columns = 40, Rows = 21; // tiles of 16 x 8 cut at the panel's edges
+  constexpr int TileColumns = xp::TracedPixels::TileColumns, TileRows = xp::TracedPixels::TileRows;
+  std::vector<uint8_t> mask(Columns * Rows);
+  for (int row = 0; row < Rows; ++row)
+    for (int column = 0; column < Columns; ++column)
+      // Tiles of the first tile row whole; below, rows of 3, 3, 3, 16, ... of a tile's columns.
+      mask[row * Columns + column] = row < TileRows || column % TileColumns < (row % 4 == 3 ? 16 : 3);
+  const xp::TracedPixels pixels(Columns, Rows, mask.data());
+  const std::vector<int>& order = pixels.Order();
+  const std::vector<int>& starts = pixels.PacketStarts();
+  ASSERT_GE(starts.size(), 2u);
+  EXPECT_EQ(starts.front(), 0);
+  EXPECT_EQ(starts.back(), static_cast<int>(order.size()));
+  EXPECT_EQ(order.size(), static_cast<size_t>(std::count(mask.begin(), mask.end(), 1)));
+  const auto tileOf = [&](int pixel)
+  { return std::make_pair(pixel / Columns / TileRows, pixel % Columns / TileColumns); };
+  int twoRowPackets = 0;
+  for (size_t p = 0; p + 1 < starts.size(); ++p)
+  {
+    ASSERT_LT(starts[p], starts[p + 1]) << "packet " << p << " is empty";
+    ASSERT_LE(starts[p + 1] - starts[p], xp::TracedPixels::PacketSize);
+    std::set<int> rows;
+    for (int n = starts[p]; n < starts[p + 1]; ++n)
+    {
+      EXPECT_EQ(tileOf(order[n]), tileOf(order[starts[p]])) << "packet " << p << " spans two tiles";
+      rows.insert(order[n] / Columns);
+    }
+    EXPECT_LE(rows.size(), 2u) << "packet " << p;
+    twoRowPackets += rows.size() == 2;
+    // A row is never split: the entry before a packet lies in another row or tile.
+    if (starts[p] > 0)
+    {
+      const int before = order[starts[p] - 1], first = order[starts[p]];
+      EXPECT_TRUE(before / Columns != first / Columns || tileOf(before) != tileOf(first))
+        << "packet " << p << " begins inside a row";
+    }
+  }
+  EXPECT_GT(twoRowPackets, 0);
+  // Rows 0-7, whole: a packet each in the two 16-column tiles, two to a packet in the 8-column
+  // one: 8 + 8 + 4. Rows 8-15 hold 3, 3, 3, 16, 3, 3, 3, 16 of a 16-column tile: {3 3} {3} {16}
+  // {3 3} {3} {16}, 6 packets; of the 8-column tile 3, 3, 3, 8, ...: {3 3} {3 8} {3 3} {3 8}, 4.
+  // Rows 16-20, 3, 3, 3, 16, 3: {3 3} {3} {16} {3}, 4; 3, 3, 3, 8, 3: {3 3} {3 8} {3}, 3.
+  EXPECT_EQ(starts.size() - 1, static_cast<size_t>(8 + 8 + 4 + 6 + 6 + 4 + 4 + 4 + 3));
+  // Unmasked: a packet per row of a 16-column tile, per two rows of an 8-column one (whose tiles
+  // hold 8, 8 and 5 rows).
+  const xp::TracedPixels all(Columns, Rows, nullptr);
+  EXPECT_EQ(all.PacketStarts().size() - 1, static_cast<size_t>(2 * Rows + 4 + 4 + 3));
 }
 
 TEST(RayCasterAnalytic, VectorPacketsMatchOneRayAtATime)
