@@ -20,6 +20,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <utility>
 
@@ -690,23 +691,37 @@ StereoRegistrationSettings ForBone(StereoRegistrationSettings settings, const At
 bool OuterSurfaceIsBone(const AttenuationVolume& volume)
 {
   const Eigen::Vector3i d = volume.StoredDimensions();
-  const auto at = [&](int i, int j, int k)
-  { return i < 0 || j < 0 || k < 0 || i >= d[0] || j >= d[1] || k >= d[2] ? 0.0f : volume.StoredAt(i, j, k); };
-  std::vector<float> surface;
   // 32 slices tell the surface's median as well as all of them: a body CT's full scan cost 0.5 s
-  // of every registration.
+  // of every registration. The slices on both cores, their values gathered in any order: the
+  // median is the same.
   const int sliceStep = std::max(1, d[2] / 32);
-  for (int k = 0; k < d[2]; k += sliceStep)
-    for (int j = 0; j < d[1]; ++j)
-      for (int i = 0; i < d[0]; ++i)
+  const int slices = (d[2] + sliceStep - 1) / sliceStep;
+  std::vector<float> surface;
+  std::mutex gathered;
+  vtkSMPTools::For(0, slices, 1,
+    [&](int first, int last)
+    {
+      std::vector<float> found;
+      for (int n = first; n < last; ++n)
       {
-        const float mu = volume.StoredAt(i, j, k);
+        const int k = n * sliceStep;
         // Voxels on the stored box's faces beside the CT's own faces are cut, not surface.
-        if (mu > 0.0f && i > 0 && j > 0 && k > 0 && i + 1 < d[0] && j + 1 < d[1] && k + 1 < d[2] &&
-          (at(i - 1, j, k) == 0.0f || at(i + 1, j, k) == 0.0f || at(i, j - 1, k) == 0.0f || at(i, j + 1, k) == 0.0f ||
-            at(i, j, k - 1) == 0.0f || at(i, j, k + 1) == 0.0f))
-          surface.push_back(mu);
+        if (k == 0 || k + 1 >= d[2])
+          continue;
+        for (int j = 1; j + 1 < d[1]; ++j)
+          for (int i = 1; i + 1 < d[0]; ++i)
+          {
+            const float mu = volume.StoredAt(i, j, k);
+            if (mu > 0.0f &&
+              (volume.StoredAt(i - 1, j, k) == 0.0f || volume.StoredAt(i + 1, j, k) == 0.0f ||
+                volume.StoredAt(i, j - 1, k) == 0.0f || volume.StoredAt(i, j + 1, k) == 0.0f ||
+                volume.StoredAt(i, j, k - 1) == 0.0f || volume.StoredAt(i, j, k + 1) == 0.0f))
+              found.push_back(mu);
+          }
       }
+      const std::lock_guard<std::mutex> lock(gathered);
+      surface.insert(surface.end(), found.begin(), found.end());
+    });
   if (surface.size() < 100)
     return false;
   std::nth_element(surface.begin(), surface.begin() + surface.size() / 2, surface.end());
