@@ -284,35 +284,48 @@ void MaskedLowPass::Subtract(float* values) const
     return;
   const int columns = this->Columns, rows = this->Rows, factor = this->Factor, w = this->GridWidth, h = this->GridHeight;
   const uint8_t* mask = this->Mask;
+  // Each column's cell, neighbouring cell and weight, computed once for every row.
+  std::vector<int> cellOf(static_cast<size_t>(columns)), x0Of(static_cast<size_t>(columns)), x1Of(static_cast<size_t>(columns));
+  std::vector<double> fxOf(static_cast<size_t>(columns));
+  for (int c = 0; c < columns; ++c)
+  {
+    cellOf[c] = c / factor;
+    // Bilinear between cell centres: pixel c lies at (c + 0.5) / factor - 0.5 in cell units.
+    const double x = std::clamp((c + 0.5) / factor - 0.5, 0.0, w - 1.0);
+    x0Of[c] = std::min(static_cast<int>(x), w - 1);
+    x1Of[c] = std::min(x0Of[c] + 1, w - 1);
+    fxOf[c] = x - x0Of[c];
+  }
   std::vector<double> sum(this->Weight.size(), 0.0);
   for (int r = 0; r < rows; ++r)
+  {
+    double* cells = sum.data() + static_cast<size_t>(r / factor) * w;
+    const float* row = values + static_cast<size_t>(r) * columns;
+    const uint8_t* valid = mask ? mask + static_cast<size_t>(r) * columns : nullptr;
     for (int c = 0; c < columns; ++c)
-    {
-      const size_t i = static_cast<size_t>(r) * columns + c;
-      if (mask && !mask[i])
-        continue;
-      sum[static_cast<size_t>(r / factor) * w + c / factor] += values[i];
-    }
+      if (!valid || valid[c])
+        cells[cellOf[c]] += row[c];
+  }
   Blur(sum, w, h, this->GridSigma);
   for (size_t cell = 0; cell < sum.size(); ++cell)
     sum[cell] = this->Weight[cell] > 1e-9 ? sum[cell] / this->Weight[cell] : 0.0;
-  // Bilinear between cell centres: pixel c lies at (c + 0.5) / factor - 0.5 in cell units.
   for (int r = 0; r < rows; ++r)
   {
     const double y = std::clamp((r + 0.5) / factor - 0.5, 0.0, h - 1.0);
     const int y0 = std::min(static_cast<int>(y), h - 1), y1 = std::min(y0 + 1, h - 1);
     const double fy = y - y0;
+    const double* low0 = sum.data() + static_cast<size_t>(y0) * w;
+    const double* low1 = sum.data() + static_cast<size_t>(y1) * w;
+    float* row = values + static_cast<size_t>(r) * columns;
+    const uint8_t* valid = mask ? mask + static_cast<size_t>(r) * columns : nullptr;
     for (int c = 0; c < columns; ++c)
     {
-      const size_t i = static_cast<size_t>(r) * columns + c;
-      if (mask && !mask[i])
+      if (valid && !valid[c])
         continue;
-      const double x = std::clamp((c + 0.5) / factor - 0.5, 0.0, w - 1.0);
-      const int x0 = std::min(static_cast<int>(x), w - 1), x1 = std::min(x0 + 1, w - 1);
-      const double fx = x - x0;
-      const double low = (1 - fy) * ((1 - fx) * sum[static_cast<size_t>(y0) * w + x0] + fx * sum[static_cast<size_t>(y0) * w + x1]) +
-        fy * ((1 - fx) * sum[static_cast<size_t>(y1) * w + x0] + fx * sum[static_cast<size_t>(y1) * w + x1]);
-      values[i] = static_cast<float>(values[i] - low);
+      const int x0 = x0Of[c], x1 = x1Of[c];
+      const double fx = fxOf[c];
+      const double low = (1 - fy) * ((1 - fx) * low0[x0] + fx * low0[x1]) + fy * ((1 - fx) * low1[x0] + fx * low1[x1]);
+      row[c] = static_cast<float>(row[c] - low);
     }
   }
 }
