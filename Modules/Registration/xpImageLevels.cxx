@@ -192,8 +192,9 @@ namespace
 /** In-place separable Gaussian of a w x h grid, edges replicated; its weights sum to 1 when
  *  `normalized`, else their peak is 1 (a normalised convolution divides by its own weights).
  *  Each output sums its taps in the same order (left to right, then top to bottom) whichever
- *  loop computes it: the interior without the edge's clamping, the columns a row at a time, so
- *  that the compiler vectorises. No wider than the grid: taps beyond it would all read its edge. */
+ *  loop computes it: the edges with clamping, the interior of a row and the columns tap by tap
+ *  over the whole row, so that the compiler vectorises across outputs. No wider than the grid:
+ *  taps beyond it would all read its edge. */
 template <typename T>
 void Blur(std::vector<T>& grid, int w, int h, double sigma, bool normalized = false)
 {
@@ -206,23 +207,31 @@ void Blur(std::vector<T>& grid, int w, int h, double sigma, bool normalized = fa
     for (T& weight : kernel)
       weight /= sum;
   std::vector<T> out(grid.size());
+  const int interiorBegin = std::min(radius, w), interiorEnd = std::max(interiorBegin, w - radius);
   for (int y = 0; y < h; ++y)
   {
     const T* in = grid.data() + static_cast<size_t>(y) * w;
     T* row = out.data() + static_cast<size_t>(y) * w;
-    for (int x = 0; x < w; ++x)
+    const auto edge = [&](int x)
     {
       T s = 0;
-      if (x >= radius && x + radius < w)
-      {
-        const T* p = in + (x - radius);
-        for (int k = 0; k <= 2 * radius; ++k)
-          s += kernel[k] * p[k];
-      }
-      else
-        for (int k = -radius; k <= radius; ++k)
-          s += kernel[k + radius] * in[std::clamp(x + k, 0, w - 1)];
+      for (int k = -radius; k <= radius; ++k)
+        s += kernel[k + radius] * in[std::clamp(x + k, 0, w - 1)];
       row[x] = s;
+    };
+    for (int x = 0; x < interiorBegin; ++x)
+      edge(x);
+    for (int x = interiorEnd; x < w; ++x)
+      edge(x);
+    T* __restrict interior = row + interiorBegin;
+    const int count = interiorEnd - interiorBegin;
+    std::fill(interior, interior + count, T(0));
+    for (int k = 0; k <= 2 * radius; ++k)
+    {
+      const T weight = kernel[k];
+      const T* __restrict taps = in + interiorBegin - radius + k;
+      for (int x = 0; x < count; ++x)
+        interior[x] += weight * taps[x];
     }
   }
   std::vector<T> sums(static_cast<size_t>(w));
