@@ -388,7 +388,7 @@ double TracePlanes(const AttenuationVolume& volume, const IndexRay& ray, const s
  *  >= last take no samples. AVX-512 samples all sixteen at once, AVX2 eight at a time. */
 struct RayPacket
 {
-  static constexpr int Size = 16;
+  static constexpr int Size = TracedPixels::PacketSize;
   PlaneRay rays[Size];
   int first[Size] = {}; ///< first sample j in an occupied block
   int last[Size] = {};  ///< one past the last

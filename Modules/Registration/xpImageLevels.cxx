@@ -285,6 +285,20 @@ MaskedLowPass::MaskedLowPass(const uint8_t* mask, int columns, int rows, double 
       if (!mask || mask[static_cast<size_t>(r) * columns + c])
         this->Weight[static_cast<size_t>(r / this->Factor) * this->GridWidth + c / this->Factor] += 1.0;
   Blur(this->Weight, this->GridWidth, this->GridHeight, this->GridSigma);
+  const int w = this->GridWidth;
+  this->ColumnCell.resize(static_cast<size_t>(columns));
+  this->ColumnLow.resize(static_cast<size_t>(columns));
+  this->ColumnHigh.resize(static_cast<size_t>(columns));
+  this->ColumnWeight.resize(static_cast<size_t>(columns));
+  for (int c = 0; c < columns; ++c)
+  {
+    this->ColumnCell[c] = c / this->Factor;
+    // Bilinear between cell centres: pixel c lies at (c + 0.5) / factor - 0.5 in cell units.
+    const double x = std::clamp((c + 0.5) / this->Factor - 0.5, 0.0, w - 1.0);
+    this->ColumnLow[c] = std::min(static_cast<int>(x), w - 1);
+    this->ColumnHigh[c] = std::min(this->ColumnLow[c] + 1, w - 1);
+    this->ColumnWeight[c] = x - this->ColumnLow[c];
+  }
 }
 
 void MaskedLowPass::Subtract(float* values) const
@@ -293,18 +307,7 @@ void MaskedLowPass::Subtract(float* values) const
     return;
   const int columns = this->Columns, rows = this->Rows, factor = this->Factor, w = this->GridWidth, h = this->GridHeight;
   const uint8_t* mask = this->Mask;
-  // Each column's cell, neighbouring cell and weight, computed once for every row.
-  std::vector<int> cellOf(static_cast<size_t>(columns)), x0Of(static_cast<size_t>(columns)), x1Of(static_cast<size_t>(columns));
-  std::vector<double> fxOf(static_cast<size_t>(columns));
-  for (int c = 0; c < columns; ++c)
-  {
-    cellOf[c] = c / factor;
-    // Bilinear between cell centres: pixel c lies at (c + 0.5) / factor - 0.5 in cell units.
-    const double x = std::clamp((c + 0.5) / factor - 0.5, 0.0, w - 1.0);
-    x0Of[c] = std::min(static_cast<int>(x), w - 1);
-    x1Of[c] = std::min(x0Of[c] + 1, w - 1);
-    fxOf[c] = x - x0Of[c];
-  }
+  const int* cellOf = this->ColumnCell.data();
   std::vector<double> sum(this->Weight.size(), 0.0);
   for (int r = 0; r < rows; ++r)
   {
@@ -331,8 +334,8 @@ void MaskedLowPass::Subtract(float* values) const
     {
       if (valid && !valid[c])
         continue;
-      const int x0 = x0Of[c], x1 = x1Of[c];
-      const double fx = fxOf[c];
+      const int x0 = this->ColumnLow[c], x1 = this->ColumnHigh[c];
+      const double fx = this->ColumnWeight[c];
       const double low = (1 - fy) * ((1 - fx) * low0[x0] + fx * low0[x1]) + fy * ((1 - fx) * low1[x0] + fx * low1[x1]);
       row[c] = static_cast<float>(row[c] - low);
     }

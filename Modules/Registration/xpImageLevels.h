@@ -115,6 +115,10 @@ private:
   int Columns, Rows, Factor = 1, GridWidth = 0, GridHeight = 0;
   double GridSigma = 0.0;
   std::vector<double> Weight; ///< the valid pixels per grid cell, blurred
+  /// Per panel column: its grid cell, the two cells it is interpolated between and the weight of
+  /// the second (the same for every row and every call of Subtract).
+  std::vector<int> ColumnCell, ColumnLow, ColumnHigh;
+  std::vector<double> ColumnWeight;
 };
 
 } // namespace xp
