@@ -149,24 +149,42 @@ int RunBenchDRR(const BenchOptions& options)
 
   if (HasWideVectorRayCaster() && device == ComputeDevice::CPU)
   {
-    // The same rays sixteen at a time (AVX-512) and eight (AVX2), taking turns in this run: the
-    // same integrals to the bit, in different times.
-    std::printf("\nRays per packet (trilinear, the same integrals), 16 lanes with AVX-512 against 8 with AVX2\n"
-                "%-9s %-7s %14s %14s %12s\n",
-      "size", "threads", "16 lanes (s)", "8 lanes (s)", "8 / 16");
-    RayCastSettings narrow = Settings(RayCastMethod::Trilinear);
+    // The same rays sixteen at a time (AVX-512), their voxels read by row loads or by gathers,
+    // and eight at a time (AVX2), taking turns in this run: the same integrals to the bit, in
+    // different times. Masked too, as a registration renders.
+    std::printf("\nRays per packet (trilinear, the same integrals): 16 lanes with AVX-512, voxels read by row loads or "
+                "by gathers, against 8 with AVX2; this CPU's default: %s\n%-9s %-9s %-7s %12s %14s %12s %12s %12s\n",
+      ToString(WideVoxelReadsOf(VoxelReads::Auto)), "size", "valid (%)", "threads", "loads (s)", "gathers (s)", "8 lanes (s)",
+      "gathers/loads", "8 / loads");
+    RayCastSettings loads = Settings(RayCastMethod::Trilinear), gathers = loads, narrow = loads;
+    loads.voxelReads = VoxelReads::Loads;
+    gathers.voxelReads = VoxelReads::Gathers;
     narrow.wideVectors = false;
+    const auto compare = [&](const std::string& size, int c, int r, const std::vector<std::vector<uint8_t>>* masks, double valid,
+                           int threads)
+    {
+      vtkSMPTools::Initialize(threads);
+      long long rays = 0;
+      const double byLoads = TimeViews(scene, c, r, masks, loads, options.repetitions, rays);
+      const double byGathers = TimeViews(scene, c, r, masks, gathers, options.repetitions, rays);
+      const double eight = TimeViews(scene, c, r, masks, narrow, options.repetitions, rays);
+      std::printf("%-9s %-9.1f %-7d %12.4f %14.4f %12.4f %11.2fx %11.2fx\n", size.c_str(), 100.0 * valid, threads, byLoads,
+        byGathers, eight, byGathers / byLoads, eight / byLoads);
+    };
     for (const std::string& text : options.sizes)
     {
       const auto [c, r] = ParseSize(text, "--sizes");
       for (int threads : threadCounts)
-      {
-        vtkSMPTools::Initialize(threads);
-        long long rays = 0;
-        const double wide = TimeViews(scene, c, r, nullptr, Settings(RayCastMethod::Trilinear), options.repetitions, rays);
-        const double eight = TimeViews(scene, c, r, nullptr, narrow, options.repetitions, rays);
-        std::printf("%-9s %-7d %14.4f %14.4f %11.2fx\n", text.c_str(), threads, wide, eight, eight / wide);
-      }
+        compare(text, c, r, nullptr, 1.0, threads);
+    }
+    const auto [c, r] = ParseSize(options.maskSize, "--mask-size");
+    for (double fraction : options.validFractions)
+    {
+      std::vector<std::vector<uint8_t>> masks(scene.views.size());
+      double valid = 0.0;
+      for (size_t v = 0; v < masks.size(); ++v)
+        valid += TileMask(c, r, fraction, static_cast<int>(v) + 1, masks[v]) / masks.size();
+      compare(options.maskSize, c, r, &masks, valid, cores);
     }
   }
 

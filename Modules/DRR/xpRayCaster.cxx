@@ -509,8 +509,10 @@ __attribute__((target("avx2,fma"))) void SamplePacketAVX2(
  * permutation, instead of two sixteen-element gathers, which cost about as much as the rest of
  * the sample together (Performance.md, "The packets' gathers"). Elsewhere (a masked packet's lanes
  * in rows of the panel far apart, a volume's first or last voxels), the gathers.
- * `voxelCount` is the length of the voxel array (AttenuationVolume::VoxelCount).
+ * `voxelCount` is the length of the voxel array (AttenuationVolume::VoxelCount). Without
+ * `RowLoads` (VoxelReads::Gathers), the gathers everywhere.
  */
+template <bool RowLoads>
 __attribute__((target("avx512f,avx512bw"))) void SamplePacketAVX512(
   const RayPacket& packet, int axis, int sa, int step, long long voxelCount, float* sums)
 {
@@ -576,7 +578,7 @@ __attribute__((target("avx512f,avx512bw"))) void SamplePacketAVX512(
       const __m512i d = _mm512_sub_epi32(inLowest, reference);
       const long long r = _mm_cvtsi128_si32(_mm512_castsi512_si128(reference));
       const __mmask16 near = _mm512_mask_cmple_epu32_mask(active, _mm512_add_epi32(d, reach), span);
-      if ((near & twoRows) == active && r >= 31 && r <= lastReference)
+      if (RowLoads && (near & twoRows) == active && r >= 31 && r <= lastReference)
       {
         // Word i of a lane's element: the voxel d + 31 + i words after r - 31 in its row, as the
         // gather's. Row k (0 to 2): the 64 words from r - 31 + k strideC.
@@ -616,15 +618,32 @@ __attribute__((target("avx512f,avx512bw"))) void SamplePacketAVX512(
 
 const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
+const bool IsAMD = __builtin_cpu_is("amd");
+
+/** How TracePacket samples a packet: two AVX2 passes of eight lanes, or one AVX-512 pass of
+ *  sixteen reading voxel rows with loads where it can, or with gathers. */
+enum class PacketPath
+{
+  EightLanes,
+  SixteenLanesLoads,
+  SixteenLanesGathers,
+};
+
+PacketPath PacketPathOf(const RayCastSettings& settings)
+{
+  if (!settings.wideVectors || !HaveAVX512)
+    return PacketPath::EightLanes;
+  return WideVoxelReadsOf(settings.voxelReads) == VoxelReads::Loads ? PacketPath::SixteenLanesLoads
+                                                                      : PacketPath::SixteenLanesGathers;
+}
 
 /**
  * Line integrals of a packet's `count` rays (at most Size) into integrals[0..count-1]: one pass
  * per distinct (axis, direction) among its rays, one pass except where the dominant axis changes
- * across the panel; `wide`, all sixteen lanes in one AVX-512 pass, else two AVX2 passes of eight.
- * Lanes from `count` on take no samples.
+ * across the panel, along `path`. Lanes from `count` on take no samples.
  */
 void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, int count, const std::array<int, 3>& planeSteps,
-  bool wide, float* integrals)
+  PacketPath path, float* integrals)
 {
   RayPacket packet;
   const long long voxelCount = static_cast<long long>(volume.VoxelCount());
@@ -658,14 +677,18 @@ void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, int coun
     }
     float sums[RayPacket::Size];
     const int step = planeSteps[ray.axis];
-    if (wide)
+    switch (path)
     {
-      SamplePacketAVX512(packet, ray.axis, ray.planes.sa, step, voxelCount, sums);
-    }
-    else
-    {
-      SamplePacketAVX2(packet, 0, ray.axis, ray.planes.sa, step, sums);
-      SamplePacketAVX2(packet, 8, ray.axis, ray.planes.sa, step, sums + 8);
+      case PacketPath::SixteenLanesLoads:
+        SamplePacketAVX512<true>(packet, ray.axis, ray.planes.sa, step, voxelCount, sums);
+        break;
+      case PacketPath::SixteenLanesGathers:
+        SamplePacketAVX512<false>(packet, ray.axis, ray.planes.sa, step, voxelCount, sums);
+        break;
+      case PacketPath::EightLanes:
+        SamplePacketAVX2(packet, 0, ray.axis, ray.planes.sa, step, sums);
+        SamplePacketAVX2(packet, 8, ray.axis, ray.planes.sa, step, sums + 8);
+        break;
     }
     for (int s = r; s < RayPacket::Size; ++s)
     {
@@ -1016,7 +1039,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
     settings.method == RayCastMethod::Trilinear && settings.stepSize <= 0.0 && settings.vectorized && HaveAVX2;
   if (packets)
   {
-    const bool wide = settings.wideVectors && HaveAVX512;
+    const PacketPath path = PacketPathOf(settings);
     const std::vector<int>& starts = pixels.PacketStarts();
     const long long packetCount = static_cast<long long>(starts.size()) - 1;
     ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
@@ -1031,7 +1054,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
           {
             rays[r] = rayOf(order[firstRay + r]);
           }
-          TracePacket(volume, rays, count, settings.planeSteps, wide, integrals);
+          TracePacket(volume, rays, count, settings.planeSteps, path, integrals);
           for (int r = 0; r < count; ++r)
           {
             lineIntegrals[order[firstRay + r]] = integrals[r];
@@ -1168,6 +1191,29 @@ bool HasVectorRayCaster()
 bool HasWideVectorRayCaster()
 {
   return HaveAVX512;
+}
+
+VoxelReads WideVoxelReadsOf(VoxelReads requested)
+{
+  // The loads' word permutations paid on the AMD EPYC and cost on an Intel Xeon, whose gathers
+  // were the faster (Performance.md, "Loads or gathers, per CPU").
+  if (requested == VoxelReads::Auto)
+    return IsAMD ? VoxelReads::Loads : VoxelReads::Gathers;
+  return requested;
+}
+
+const char* ToString(VoxelReads reads)
+{
+  switch (reads)
+  {
+    case VoxelReads::Loads:
+      return "loads";
+    case VoxelReads::Gathers:
+      return "gathers";
+    case VoxelReads::Auto:
+      break;
+  }
+  return "auto";
 }
 
 void LineIntegralsTo12Bit(const float* lineIntegrals, const uint8_t* mask, long long count, uint16_t* transmission)

@@ -75,6 +75,23 @@ VTKXPDRR_EXPORT ComputeDeviceChoice ChooseComputeDevice(const std::string& optio
 /** "cpu", or "cuda (" the GPU's name ")" (starts the GPU's context when first asked). */
 VTKXPDRR_EXPORT std::string ComputeDeviceDescription(ComputeDevice device);
 
+/**
+ * How the sixteen-lane (AVX-512) packets read the four voxels of each sample. Every choice reads
+ * the same voxels, so the integrals are the same to the bit, in times that depend on the CPU
+ * (`xpose bench drr` compares them; Performance.md, "Loads or gathers, per CPU").
+ */
+enum class VoxelReads
+{
+  /** Loads on AMD's CPUs, gathers on the others (Performance.md, "Loads or gathers, per CPU"). */
+  Auto,
+  /** Where the lanes' voxels on a plane lie in one or two neighbouring rows within 31 voxels of
+   *  each other: two 64-byte loads and a word permutation per row; sixteen-element gathers
+   *  elsewhere. */
+  Loads,
+  /** Sixteen-element gathers always. */
+  Gathers,
+};
+
 struct VTKXPDRR_EXPORT RayCastSettings
 {
   RayCastMethod method = RayCastMethod::Trilinear;
@@ -106,6 +123,8 @@ struct VTKXPDRR_EXPORT RayCastSettings
    * same integrals to the bit; the setting is there to compare them.
    */
   bool wideVectors = true;
+  /** With sixteen lanes: how a packet reads its voxels (VoxelReads; the same integrals to the bit). */
+  VoxelReads voxelReads = VoxelReads::Auto;
   /** CUDA: Joseph's scheme only (method Trilinear, stepSize 0); volumes and pixel lists stay on
    *  the GPU between calls while the caller keeps them. */
   ComputeDevice device = ComputeDevice::CPU;
@@ -119,6 +138,12 @@ VTKXPDRR_EXPORT bool HasVectorRayCaster();
 
 /** Whether this CPU runs the vectorised ray caster on sixteen rays at a time (AVX-512 F and BW). */
 VTKXPDRR_EXPORT bool HasWideVectorRayCaster();
+
+/** What `requested` reads with on this CPU: Loads or Gathers (Auto resolved). */
+VTKXPDRR_EXPORT VoxelReads WideVoxelReadsOf(VoxelReads requested);
+
+/** "loads" or "gathers"; Auto: "auto". */
+VTKXPDRR_EXPORT const char* ToString(VoxelReads reads);
 
 /**
  * The pixels a DRR traces, in the order the ray caster visits them: tiles of 16 x 8, so that

@@ -377,6 +377,15 @@ TEST(RayCasterAnalytic, VectorPacketsMatchOneRayAtATime)
   }
 }
 
+TEST(RayCasterAnalytic, VoxelReadsResolveToLoadsOrGathers)
+{
+  EXPECT_EQ(xp::WideVoxelReadsOf(xp::VoxelReads::Loads), xp::VoxelReads::Loads);
+  EXPECT_EQ(xp::WideVoxelReadsOf(xp::VoxelReads::Gathers), xp::VoxelReads::Gathers);
+  const xp::VoxelReads chosen = xp::WideVoxelReadsOf(xp::VoxelReads::Auto);
+  EXPECT_TRUE(chosen == xp::VoxelReads::Loads || chosen == xp::VoxelReads::Gathers) << xp::ToString(chosen);
+  EXPECT_STREQ(xp::ToString(xp::VoxelReads::Auto), "auto");
+}
+
 TEST(RayCasterAnalytic, SixteenLanesGiveEightLanesIntegralsToTheBit)
 {
   if (!xp::HasWideVectorRayCaster())
@@ -410,20 +419,27 @@ TEST(RayCasterAnalytic, SixteenLanesGiveEightLanesIntegralsToTheBit)
   {
     for (const uint8_t* pixels : { static_cast<const uint8_t*>(nullptr), static_cast<const uint8_t*>(mask.data()) })
     {
-      std::vector<float> wide(n, -1.0f), narrow(n, -2.0f);
+      std::vector<float> narrow(n, -2.0f);
       xp::RayCastSettings settings;
       settings.planeSteps = { step, step, step };
-      xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, pixels, wide.data(), settings);
       settings.wideVectors = false;
       xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, pixels, narrow.data(), settings);
-      int nonZero = 0, differ = 0;
-      for (size_t i = 0; i < n; ++i)
+      settings.wideVectors = true;
+      // Both ways of reading the voxels: row loads where the lanes allow them, gathers always.
+      for (const xp::VoxelReads reads : { xp::VoxelReads::Loads, xp::VoxelReads::Gathers })
       {
-        differ += wide[i] != narrow[i];
-        nonZero += wide[i] > 0.0f;
+        std::vector<float> wide(n, -1.0f);
+        settings.voxelReads = reads;
+        xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), source, grid, pixels, wide.data(), settings);
+        int nonZero = 0, differ = 0;
+        for (size_t i = 0; i < n; ++i)
+        {
+          differ += wide[i] != narrow[i];
+          nonZero += wide[i] > 0.0f;
+        }
+        EXPECT_EQ(differ, 0) << "plane step " << step << (pixels ? ", masked" : "") << ", " << xp::ToString(reads);
+        EXPECT_GT(nonZero, static_cast<int>(n / 10)) << "the rays must cross the objects";
       }
-      EXPECT_EQ(differ, 0) << "plane step " << step << (pixels ? ", masked" : "");
-      EXPECT_GT(nonZero, static_cast<int>(n / 10)) << "the rays must cross the objects";
     }
   }
 }
