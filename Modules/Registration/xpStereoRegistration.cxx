@@ -191,10 +191,18 @@ double UncoveredFraction(const std::vector<uint16_t>& xray, const std::vector<ui
   return valid > 0 ? static_cast<double>(uncovered) / valid : 0.0;
 }
 
+/** The rays a shadow casts, kept for the DRRs they are: each view's line integrals at every
+ *  pixel (as a similarity of the volume with every ray cast renders them), and their cost. */
+struct ShadowRays
+{
+  std::vector<std::vector<float>> integrals;
+  SimilarityCost* cost = nullptr; ///< where given, the shadow's DRRs, rays and time are added
+};
+
 /** ANDs into each view's mask the shadow of the volume at `ctToRoom` (rays with any
- *  attenuation), widened by `marginMM` on the panel. */
+ *  attenuation), widened by `marginMM` on the panel; `kept`, where given, keeps its rays. */
 void AndShadow(std::vector<RegistrationView>& views, const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
-  double marginMM, ComputeDevice device)
+  double marginMM, ComputeDevice device, ShadowRays* kept = nullptr)
 {
   for (RegistrationView& item : views)
   {
@@ -202,7 +210,15 @@ void AndShadow(std::vector<RegistrationView>& views, const AttenuationVolume& vo
     std::vector<float> integrals(static_cast<size_t>(columns) * rows, 0.0f);
     RayCastSettings rayCast;
     rayCast.device = device;
-    RenderLineIntegrals(volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view), nullptr, integrals.data(), rayCast);
+    const Clock::time_point start = Clock::now();
+    const long long rays = RenderLineIntegrals(
+      volume, ctToRoom, item.view.source, DetectorGrid::TopRowFirst(item.view), nullptr, integrals.data(), rayCast);
+    if (kept && kept->cost)
+    {
+      kept->cost->drrs += 1;
+      kept->cost->rays += rays;
+      kept->cost->renderSeconds += Since(start);
+    }
     std::vector<uint8_t> shadow(integrals.size());
     for (size_t i = 0; i < shadow.size(); ++i)
       shadow[i] = integrals[i] > 0.0f;
@@ -213,15 +229,17 @@ void AndShadow(std::vector<RegistrationView>& views, const AttenuationVolume& vo
     else
       for (size_t i = 0; i < shadow.size(); ++i)
         item.mask[i] &= shadow[i];
+    if (kept)
+      kept->integrals.push_back(std::move(integrals));
   }
 }
 
 /** AndShadow, then the pixels within the same margin of the shadow of the bone's cut faces left out
  *  (xpBoneCut.h): there the X-ray shows the bone running on where its DRR ends. */
 void AndShadowLessCuts(std::vector<RegistrationView>& views, const AttenuationVolume& volume, const Eigen::Isometry3d& ctToRoom,
-  double marginMM, const std::vector<Eigen::Vector3d>& cutPoints, ComputeDevice device)
+  double marginMM, const std::vector<Eigen::Vector3d>& cutPoints, ComputeDevice device, ShadowRays* kept = nullptr)
 {
-  AndShadow(views, volume, ctToRoom, marginMM, device);
+  AndShadow(views, volume, ctToRoom, marginMM, device, kept);
   for (RegistrationView& item : views)
   {
     LeaveOutAroundPoints(item.mask, item.view, cutPoints, ctToRoom, marginMM);
@@ -1330,10 +1348,15 @@ private:
     // Where no ray meets the CT there is only what it does not hold: open field shaded by the
     // heel effect and scatter, a couch. Beyond the outline's margin that is no evidence about
     // the pose, and it flattened the peak of a rounded head along roll (Algorithms.md).
+    // Its rays are the DRRs at the result, every pixel of them (below, "at the result").
+    ShadowRays atTheResult;
+    atTheResult.cost = &this->Cost;
     if (this->Result.boneOnly)
-      AndShadowLessCuts(wholeViews, this->Volume, resultCTToRoom, settings.boneShadowFineMarginMM, this->CutPoints, settings.device);
+      AndShadowLessCuts(wholeViews, this->Volume, resultCTToRoom, settings.boneShadowFineMarginMM, this->CutPoints,
+        settings.device, &atTheResult);
     else
-      AndShadow(wholeViews, this->Volume, resultCTToRoom, settings.heldOutShadowMarginMM, settings.device);
+      AndShadow(wholeViews, this->Volume, resultCTToRoom, settings.heldOutShadowMarginMM, settings.device, &atTheResult);
+    this->Result.drrCount += static_cast<long long>(wholeViews.size());
     const int heldOutDivisor = this->Pyramid ? 2 : 1;
     const std::unique_ptr<StereoSimilarity> heldOut = this->Similarity(this->VolumeFor(heldOutDivisor),
       Shrunk(wholeViews, heldOutDivisor), { settings.equalizedLevels, settings.heldOutHighPassMM, this->CorrelationMM });
@@ -1353,7 +1376,20 @@ private:
       wholeViews[v].xray = this->UnsmoothedViews[v].xray;
     this->Trace.Begin("at the result", 1);
     const std::unique_ptr<StereoSimilarity> atFullSize = this->Similarity(this->Volume, wholeViews, { true, 0.0 });
-    const EdgeDistances edges = MeasureEdges(this->Traced(*atFullSize, &this->Result.evaluations), *atFullSize, end.pose, this->Isocenter);
+    // Its DRRs are the shadow's line integrals on its pixels (the same rays, every one cast):
+    // measured, not rendered again.
+    for (size_t v = 0; v < wholeViews.size(); ++v)
+      for (size_t i = 0; i < wholeViews[v].mask.size(); ++i)
+        if (!wholeViews[v].mask[i])
+          atTheResult.integrals[v][i] = 0.0f;
+    const auto measured = [this, &atFullSize, &atTheResult](const Pose&)
+    {
+      const double value = this->Trace.Traced(atFullSize->ObjectiveOf(atTheResult.integrals));
+      ++this->Result.evaluations;
+      this->Progress.Evaluated(value);
+      return value;
+    };
+    const EdgeDistances edges = MeasureEdges(measured, *atFullSize, end.pose, this->Isocenter);
     this->Result.edgeDistanceMM = edges.mm;
     this->Result.edgeDistanceShiftedMM = edges.shiftedMM;
     this->Result.drrCount += atFullSize->RenderedDRRs();

@@ -950,8 +950,9 @@ TEST(PoseOptimizer, EveryMethodFindsASmoothPeak)
 }
 
 // Each 6-DOF stage's cost is its own: a coarse search renders two DRRs (one per view) for each
-// evaluation it traces and nothing else; the stages and the pre-alignment never count more DRRs
-// than the registration rendered.
+// evaluation it traces and nothing else; the landscape renders the CT's shadow, whose rays are
+// the DRRs measured "at the result", which renders none; the stages and the pre-alignment never
+// count more DRRs than the registration rendered.
 TEST(StereoRegistration, CostsAreAccountedPerStage)
 {
   Scene scene;
@@ -967,8 +968,11 @@ TEST(StereoRegistration, CostsAreAccountedPerStage)
     const int next = s + 1 < result.stages.size() ? result.stages[s + 1].firstEvaluation : static_cast<int>(result.objectiveTrace.size());
     if (stage.name.find("coarse search") != std::string::npos)
       EXPECT_EQ(stage.cost.drrs, 2 * (next - stage.firstEvaluation)) << stage.name;
-    // The landscape reads the polish's evaluations: it may render none of its own.
-    if (stage.name != "landscape")
+    if (stage.name == "landscape")
+      EXPECT_EQ(stage.cost.drrs, 2) << "the shadow at the result, one DRR per view";
+    if (stage.name == "at the result")
+      EXPECT_EQ(stage.cost.drrs, 0) << "measured on the landscape's shadow, not rendered again";
+    else
     {
       EXPECT_GT(stage.cost.rays, 0) << stage.name;
       EXPECT_GT(stage.cost.renderSeconds, 0.0) << stage.name;
