@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <thread>
 #include <vector>
 
@@ -96,6 +97,21 @@ double TileMask(int columns, int rows, double fraction, int seed, std::vector<ui
 
 } // namespace
 
+std::string BenchMachineDescription()
+{
+  std::string model = "an unnamed CPU";
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  for (std::string line; std::getline(cpuinfo, line);)
+    if (line.rfind("model name", 0) == 0 && line.find(':') != std::string::npos)
+    {
+      model = line.substr(line.find(':') + 1);
+      model.erase(0, model.find_first_not_of(" \t"));
+      break;
+    }
+  return model + ", " + std::to_string(std::max(1u, std::thread::hardware_concurrency())) + " hardware threads, ray caster " +
+    RayCasterPathDescription();
+}
+
 int RunBenchDRR(const BenchOptions& options)
 {
   if (options.repetitions < 1)
@@ -115,11 +131,11 @@ int RunBenchDRR(const BenchOptions& options)
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const Eigen::Vector3i stored = scene.volume.StoredDimensions();
   std::printf("xpose bench drr\nCT: %s, %d x %d x %d voxels; attenuation volume built in %.3f s, storing the %d x %d x %d "
-              "voxels around the body, %.0f %% of its %d^3 blocks occupied\ngeometry: %s, %zu views; machine: %d hardware "
-              "threads; median of %d runs\n\n",
+              "voxels around the body, %.0f %% of its %d^3 blocks occupied\ngeometry: %s, %zu views; machine: %s; median of %d "
+              "runs\n\n",
     options.ct.c_str(), dims[0], dims[1], dims[2], prepareSeconds, stored[0], stored[1], stored[2],
     100.0 * scene.volume.OccupiedFraction(), 1 << AttenuationVolume::BlockShift, options.geometry.c_str(), scene.views.size(),
-    cores, options.repetitions);
+    BenchMachineDescription().c_str(), options.repetitions);
 
   std::printf("Unmasked rendering, all views per run\n%-10s %-9s %-7s %10s %12s %14s %10s\n", "method", "size", "threads",
     "rays", "time (s)", "M rays/s", "speed-up");

@@ -239,10 +239,11 @@ int RunBenchRegister(const BenchRegisterOptions& options)
   ct.image->GetDimensions(dims);
   std::printf("xpose bench register\nCT: %s, %d x %d x %d voxels, read in %.2f s (with the geometry; not in the times "
               "below)\nX-rays: scenario %s%s%s, %d trials (seed %u, %.0f-%.0f mm, %.0f degrees), registered at %s with "
-              "entropy masks (approach B) against %.0f %% of the CT's slices%s; %d threads\n",
+              "entropy masks (approach B) against %.0f %% of the CT's slices%s; %d threads\nmachine: %s\n",
     options.ct.c_str(), dims[0], dims[1], dims[2], readSeconds, options.scenario.c_str(), detector ? ", detector " : "",
     options.detector.c_str(), options.trials, options.seed, options.minTranslation, options.maxTranslation, options.maxRotation,
-    options.size.c_str(), 100.0 * scenario.RegistrationCTLength(), scenario.RemovesTable() ? ", its table left out" : "", cores);
+    options.size.c_str(), 100.0 * scenario.RegistrationCTLength(), scenario.RemovesTable() ? ", its table left out" : "", cores,
+    BenchMachineDescription().c_str());
 
   std::vector<VariantFigures> variants;
   const std::filesystem::path scratch =

@@ -266,6 +266,9 @@ int RunPhantom(const PhantomOptions& options);
 int RunGeometry(const GeometryOptions& options);
 int RunDRR(const DRROptions& options);
 int RunBenchDRR(const BenchOptions& options);
+/** What the benches print of the machine: the CPU's model (Linux's /proc/cpuinfo; "an unnamed
+ *  CPU" elsewhere), its hardware threads and the ray caster's path (RayCasterPathDescription). */
+std::string BenchMachineDescription();
 int RunBenchRegister(const BenchRegisterOptions& options);
 int RunMask(const MaskOptions& options);
 int RunSimulate(const SimulateOptions& options);

@@ -1202,6 +1202,13 @@ VoxelReads WideVoxelReadsOf(VoxelReads requested)
   return requested;
 }
 
+std::string RayCasterPathDescription()
+{
+  if (HaveAVX512)
+    return std::string("AVX-512, 16 lanes, voxels read by ") + ToString(WideVoxelReadsOf(VoxelReads::Auto));
+  return HaveAVX2 ? "AVX2, 8 lanes" : "scalar, one ray at a time";
+}
+
 const char* ToString(VoxelReads reads)
 {
   switch (reads)

@@ -145,6 +145,10 @@ VTKXPDRR_EXPORT VoxelReads WideVoxelReadsOf(VoxelReads requested);
 /** "loads" or "gathers"; Auto: "auto". */
 VTKXPDRR_EXPORT const char* ToString(VoxelReads reads);
 
+/** The CPU's vectorised ray caster as it runs by default: "AVX-512, 16 lanes, voxels read by
+ *  gathers" (or "by loads"), "AVX2, 8 lanes", or "scalar, one ray at a time". */
+VTKXPDRR_EXPORT std::string RayCasterPathDescription();
+
 /**
  * The pixels a DRR traces, in the order the ray caster visits them: tiles of 16 x 8, so that
  * neighbouring rays, which read the same voxels, run together; the list also spreads masked work

@@ -1196,7 +1196,7 @@ TEST(Commands, BenchRegisterPrintsStagesPerVariant)
          "| coarse search", "| fine | 1/1 | 1 |", "| landscape | 1/1 | 1 |", "Variants side by side", "the schedule",
          "refinement    fine", "| model evaluations |", "| cores busy |", "| nelder-mead, strides 1/1, half travel | ",
          "| nelder-mead, strides 2/2, half travel | ", "| nelder-mead/bobyqa, strides 1/1, quarter travel | ",
-         "median time with the CT read (s)", "against 100 % of the CT's slices;" })
+         "median time with the CT read (s)", "against 100 % of the CT's slices;", "\nmachine: ", " hardware threads, ray caster " })
     EXPECT_NE(out.find(text), std::string::npos) << text << "\n" << out;
   // The reference's time ratio to itself; every ray cast at stride 1, about a quarter at 2.
   const auto row = [&](const std::string& name)
