@@ -616,7 +616,9 @@ __attribute__((target("avx512f,avx512bw"))) void SamplePacketAVX512(
   _mm512_storeu_ps(sums, sum);
 }
 
-const bool HaveAVX2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+// Initialised before main: the CPU's features read explicitly first (__builtin_cpu_init), as
+// a constructor's use of them must not rely on libgcc's own running before it.
+const bool HaveAVX2 = (__builtin_cpu_init(), __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"));
 const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
 const bool IsAMD = __builtin_cpu_is("amd");
 
