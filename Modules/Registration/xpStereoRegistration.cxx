@@ -1392,7 +1392,6 @@ private:
     const EdgeDistances edges = MeasureEdges(measured, *atFullSize, end.pose, this->Isocenter);
     this->Result.edgeDistanceMM = edges.mm;
     this->Result.edgeDistanceShiftedMM = edges.shiftedMM;
-    this->Result.drrCount += atFullSize->RenderedDRRs();
     // The refinement's objective and DRRs at the result: what the gate reads. After the polish
     // its last evaluation was the result's, and no other pose has been evaluated on it since.
     this->Result.objective = this->PolishProbes ? end.value : this->Traced(*this->Fine, &this->Result.evaluations)(end.pose);
