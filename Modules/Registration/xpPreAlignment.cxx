@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <string>
 
 namespace xp
 {
@@ -128,7 +129,69 @@ __attribute__((target("avx2"))) void WarpPixelRangeAVX2(const uint16_t* moving, 
   WarpPixelRange(moving, columns, rows, m, pixels, k, k1, out, valid);
 }
 
-const bool HaveAVX2 = __builtin_cpu_supports("avx2");
+/**
+ * WarpPixelRangeAVX2 eight pixels at a time with AVX-512: the same double operations in the same
+ * order, none fused (GCC would contract a product and a sum into one rounding where the target
+ * has FMA: contraction is off here), so the values are bit for bit the scalar ones.
+ */
+#if defined(__clang__)
+#define XP_WARP_AVX512_TARGET __attribute__((target("avx512f,avx512vl,avx512bw")))
+#else
+#define XP_WARP_AVX512_TARGET __attribute__((target("avx512f,avx512vl,avx512bw"), optimize("fp-contract=off")))
+#endif
+XP_WARP_AVX512_TARGET void WarpPixelRangeAVX512(const uint16_t* moving, int columns, int rows, const InverseMotion& m,
+  const PixelIndex* pixels, size_t k0, size_t k1, uint16_t* out, uint8_t* valid)
+{
+  const __m512d cx = _mm512_set1_pd(m.center[0]), cy = _mm512_set1_pd(m.center[1]);
+  const __m512d sx = _mm512_set1_pd(m.shift[0]), sy = _mm512_set1_pd(m.shift[1]);
+  const __m512d c = _mm512_set1_pd(m.c), s = _mm512_set1_pd(m.s);
+  const __m512d toColumn = _mm512_set1_pd(m.toColumn), toRow = _mm512_set1_pd(m.toRow);
+  const __m512d zero = _mm512_setzero_pd(), half = _mm512_set1_pd(0.5);
+  const __m512d lastX = _mm512_set1_pd(columns - 1), lastY = _mm512_set1_pd(rows - 1);
+  const __m256i width = _mm256_set1_epi32(columns), low16 = _mm256_set1_epi32(0xffff);
+  // (c, r) x 8 -> c x 8, r x 8
+  const __m512i byAxis = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 1, 3, 5, 7, 9, 11, 13, 15);
+  const int* words = reinterpret_cast<const int*>(moving);
+  size_t k = k0;
+  for (; k + 8 <= k1; k += 8)
+  {
+    const __m512i both = _mm512_permutexvar_epi32(byAxis, _mm512_loadu_si512(pixels + k));
+    const __m512d column = _mm512_cvtepi32_pd(_mm512_castsi512_si256(both));
+    const __m512d row = _mm512_cvtepi32_pd(_mm512_extracti64x4_epi64(both, 1));
+    const __m512d dx = _mm512_sub_pd(_mm512_sub_pd(column, cx), sx), dy = _mm512_sub_pd(_mm512_sub_pd(row, cy), sy);
+    const __m512d x = _mm512_add_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_mul_pd(c, dx), _mm512_mul_pd(s, dy)), toColumn), cx);
+    const __m512d y = _mm512_add_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(s, dx), _mm512_mul_pd(c, dy)), toRow), cy);
+    // Ordered comparisons: false for NaN, as the scalar test.
+    const __mmask8 inside = _mm512_cmp_pd_mask(x, zero, _CMP_GE_OQ) & _mm512_cmp_pd_mask(y, zero, _CMP_GE_OQ) &
+      _mm512_cmp_pd_mask(x, lastX, _CMP_LT_OQ) & _mm512_cmp_pd_mask(y, lastY, _CMP_LT_OQ);
+    if (inside == 0)
+    {
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out + k), _mm_setzero_si128());
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(valid + k), _mm_setzero_si128());
+      continue;
+    }
+    // Lanes outside truncate x and y of 0 and read pixel 0: their values are dropped below.
+    const __m256i x0 = _mm512_cvttpd_epi32(_mm512_maskz_mov_pd(inside, x)), y0 = _mm512_cvttpd_epi32(_mm512_maskz_mov_pd(inside, y));
+    const __m512d fx = _mm512_sub_pd(x, _mm512_cvtepi32_pd(x0)), fy = _mm512_sub_pd(y, _mm512_cvtepi32_pd(y0));
+    const __m256i at = _mm256_add_epi32(_mm256_mullo_epi32(y0, width), x0);
+    const __m256i upper = _mm256_i32gather_epi32(words, at, 2), lower = _mm256_i32gather_epi32(words, _mm256_add_epi32(at, width), 2);
+    // Each pair's left pixel in its low 16 bits, its right in the high: left + fx (right - left).
+    const __m256i upperLeft = _mm256_and_si256(upper, low16), lowerLeft = _mm256_and_si256(lower, low16);
+    const __m512d top = _mm512_add_pd(_mm512_cvtepi32_pd(upperLeft),
+      _mm512_mul_pd(fx, _mm512_cvtepi32_pd(_mm256_sub_epi32(_mm256_srli_epi32(upper, 16), upperLeft))));
+    const __m512d bottom = _mm512_add_pd(_mm512_cvtepi32_pd(lowerLeft),
+      _mm512_mul_pd(fx, _mm512_cvtepi32_pd(_mm256_sub_epi32(_mm256_srli_epi32(lower, 16), lowerLeft))));
+    const __m256i value = _mm512_cvttpd_epi32(_mm512_add_pd(_mm512_add_pd(top, _mm512_mul_pd(fy, _mm512_sub_pd(bottom, top))), half));
+    // The values are whole numbers in [0, 4096): their low 16 bits are the value.
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + k), _mm_maskz_mov_epi16(inside, _mm256_cvtepi32_epi16(value)));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(valid + k), _mm_maskz_set1_epi8(inside, 1));
+  }
+  WarpPixelRange(moving, columns, rows, m, pixels, k, k1, out, valid);
+}
+
+const bool HaveAVX2 = (__builtin_cpu_init(), __builtin_cpu_supports("avx2"));
+const bool HaveAVX512 =
+  HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw");
 #endif
 
 /** In-plane rotation (degrees, image coordinates) of a view's projection under a small 3D
@@ -235,26 +298,44 @@ std::array<std::vector<int>, 2> SortedValidColumnsAndRows(const std::vector<uint
 
 } // namespace
 
+bool WarpLanesAvailable(WarpLanes lanes)
+{
+  switch (lanes)
+  {
+    case WarpLanes::Widest:
+    case WarpLanes::One:
+      return true;
+#ifdef XP_WARP_AVX2
+    case WarpLanes::Four:
+      return HaveAVX2;
+    case WarpLanes::Eight:
+      return HaveAVX512;
+#endif
+    default:
+      return false;
+  }
+}
+
 void WarpPixels(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion,
-  const std::vector<PixelIndex>& pixels, std::vector<uint16_t>& out, std::vector<uint8_t>& valid, bool vectorized)
+  const std::vector<PixelIndex>& pixels, std::vector<uint16_t>& out, std::vector<uint8_t>& valid, WarpLanes lanes)
 {
   if (moving.size() != static_cast<size_t>(columns) * rows || columns < 2 || rows < 2)
     throw InputError("2D warp", "the moving image's size differs from its columns x rows, or is under 2 x 2");
+  if (!WarpLanesAvailable(lanes))
+    throw Error("2D warp: this CPU cannot warp " + std::to_string(static_cast<int>(lanes)) + " pixels at a time");
   out.resize(pixels.size());
   valid.resize(pixels.size());
   const InverseMotion inverse(motion);
-  vtkSMPTools::For(size_t{ 0 }, pixels.size(),
-    [&](size_t k0, size_t k1)
-    {
+  using Range = void (*)(const uint16_t*, int, int, const InverseMotion&, const PixelIndex*, size_t, size_t, uint16_t*, uint8_t*);
+  Range range = WarpPixelRange;
 #ifdef XP_WARP_AVX2
-      if (vectorized && HaveAVX2)
-      {
-        WarpPixelRangeAVX2(moving.data(), columns, rows, inverse, pixels.data(), k0, k1, out.data(), valid.data());
-        return;
-      }
+  if (lanes == WarpLanes::Eight || (lanes == WarpLanes::Widest && HaveAVX512))
+    range = WarpPixelRangeAVX512;
+  else if (lanes == WarpLanes::Four || (lanes == WarpLanes::Widest && HaveAVX2))
+    range = WarpPixelRangeAVX2;
 #endif
-      WarpPixelRange(moving.data(), columns, rows, inverse, pixels.data(), k0, k1, out.data(), valid.data());
-    });
+  vtkSMPTools::For(size_t{ 0 }, pixels.size(),
+    [&](size_t k0, size_t k1) { range(moving.data(), columns, rows, inverse, pixels.data(), k0, k1, out.data(), valid.data()); });
 }
 
 Motion2D Register2D(const std::vector<uint16_t>& fixed, const std::vector<uint16_t>& moving, int columns, int rows,

@@ -35,15 +35,29 @@ struct PixelIndex
   int column, row;
 };
 
+/** How many pixels WarpPixels warps at a time: the widest this CPU has (AVX-512: eight, AVX2:
+ *  four, else one), or a given number. Every width gives the same values, bit for bit. */
+enum class WarpLanes
+{
+  Widest = 0,
+  One = 1,
+  Four = 4,  ///< AVX2
+  Eight = 8, ///< AVX-512 (F, VL and BW)
+};
+
+/** Whether this CPU can warp `lanes` pixels at a time (Widest and One: always). */
+VTKXPREGISTRATION_EXPORT bool WarpLanesAvailable(WarpLanes lanes);
+
 /**
  * moving(T^-1 p) at each of `pixels` (columns x rows `moving`, row 0 first): bilinear, rounded
  * half up; `valid` is 1 where the source lies inside `moving` and 0 (with a value of 0) where it
  * does not. Only the pixels a mask keeps are warped: the gate's 2D registrations of masked halves
- * (a tenth of a view or less) warp nothing else. On all threads; with `vectorized`, four pixels at
- * a time where the CPU has AVX2, bit for bit the values of one at a time (`vectorized` false).
+ * (a tenth of a view or less) warp nothing else. On all threads, `lanes` pixels at a time (an
+ * Error where the CPU has not those lanes), bit for bit the values of one at a time.
  */
 VTKXPREGISTRATION_EXPORT void WarpPixels(const std::vector<uint16_t>& moving, int columns, int rows, const Motion2D& motion,
-  const std::vector<PixelIndex>& pixels, std::vector<uint16_t>& out, std::vector<uint8_t>& valid, bool vectorized = true);
+  const std::vector<PixelIndex>& pixels, std::vector<uint16_t>& out, std::vector<uint8_t>& valid,
+  WarpLanes lanes = WarpLanes::Widest);
 
 /**
  * Registers `moving` onto `fixed` (both columns x rows, 12-bit, row 0 first): the motion T such

@@ -640,7 +640,7 @@ TEST(PreAlignment, TheHalvesOfAStretchedImageRegisterApartThroughTheMasksBlanks)
   EXPECT_THROW(xp::StretchedHalvesApart(drr, drr, std::vector<uint8_t>(10, 1), 160, 120, 32, 3.0), xp::InputError);
 }
 
-TEST(PreAlignment, TheWarpFourPixelsAtATimeIsBitForBitTheWarpOneAtATime)
+TEST(PreAlignment, TheWarpFourOrEightPixelsAtATimeIsBitForBitTheWarpOneAtATime)
 {
   // Random 12-bit pixels, every pixel of a 37 x 23 image and a scattered subset (odd counts, so
   // both the vectorised loop and its tail run), under motions whose sources fall inside, across
@@ -670,12 +670,20 @@ TEST(PreAlignment, TheWarpFourPixelsAtATimeIsBitForBitTheWarpOneAtATime)
   for (const xp::Motion2D& motion : motions)
     for (const std::vector<xp::PixelIndex>* pixels : { &every, &some })
     {
-      std::vector<uint16_t> one, four;
-      std::vector<uint8_t> oneValid, fourValid;
-      xp::WarpPixels(moving, columns, rows, motion, *pixels, one, oneValid, false);
-      xp::WarpPixels(moving, columns, rows, motion, *pixels, four, fourValid, true);
-      EXPECT_EQ(one, four);
-      EXPECT_EQ(oneValid, fourValid);
+      std::vector<uint16_t> one, wide;
+      std::vector<uint8_t> oneValid, wideValid;
+      xp::WarpPixels(moving, columns, rows, motion, *pixels, one, oneValid, xp::WarpLanes::One);
+      for (const xp::WarpLanes lanes : { xp::WarpLanes::Four, xp::WarpLanes::Eight, xp::WarpLanes::Widest })
+      {
+        if (!xp::WarpLanesAvailable(lanes))
+        {
+          EXPECT_THROW(xp::WarpPixels(moving, columns, rows, motion, *pixels, wide, wideValid, lanes), xp::Error);
+          continue;
+        }
+        xp::WarpPixels(moving, columns, rows, motion, *pixels, wide, wideValid, lanes);
+        EXPECT_EQ(one, wide) << static_cast<int>(lanes) << " lanes";
+        EXPECT_EQ(oneValid, wideValid) << static_cast<int>(lanes) << " lanes";
+      }
     }
   // The identity keeps every pixel but the last column and row (their neighbour lies outside).
   std::vector<uint16_t> out;

@@ -1,0 +1,110 @@
+/**
+ * What the 2D/2D registration's kernels cost per call (Google Benchmark): the warp of a view's
+ * pixels, the joint histogram with its mutual information, and one whole 2D registration, on
+ * images the size of a registration's half-size views (256 x 192) and full-size views
+ * (512 x 384). The images are smooth shapes with a little noise, as DRRs and X-rays are: their
+ * neighbouring pixels share histogram bins, which is what the histogram's speed depends on.
+ *
+ *   build/bin/xpKernelBenchmarks [--benchmark_filter=REGEX] [--benchmark_repetitions=N]
+ */
+#include "xpMutualInformation.h"
+#include "xpPreAlignment.h"
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace
+{
+
+/** A 12-bit image of columns x rows: two overlapping blobs on a slope, and noise of sd `noise`. */
+std::vector<uint16_t> Shapes(int columns, int rows, double shiftColumns, double noise, unsigned seed)
+{
+  std::mt19937 random(seed);
+  std::normal_distribution<double> grain(0.0, noise);
+  std::vector<uint16_t> image(static_cast<size_t>(columns) * rows);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < columns; ++c)
+    {
+      const double x = (c - shiftColumns) / columns, y = static_cast<double>(r) / rows;
+      const double blob = std::exp(-40.0 * ((x - 0.4) * (x - 0.4) + (y - 0.5) * (y - 0.5))) +
+        0.6 * std::exp(-90.0 * ((x - 0.65) * (x - 0.65) + (y - 0.35) * (y - 0.35)));
+      const double value = 600.0 + 1500.0 * x + 1800.0 * blob + grain(random);
+      image[static_cast<size_t>(r) * columns + c] = static_cast<uint16_t>(std::clamp(value, 0.0, 4095.0));
+    }
+  return image;
+}
+
+/** Every pixel of a columns x rows panel whose column and row are inside the central 80 %. */
+std::vector<xp::PixelIndex> CentralPixels(int columns, int rows)
+{
+  std::vector<xp::PixelIndex> pixels;
+  for (int r = rows / 10; r < rows - rows / 10; ++r)
+    for (int c = columns / 10; c < columns - columns / 10; ++c)
+      pixels.push_back({ c, r });
+  return pixels;
+}
+
+void Warp(benchmark::State& state)
+{
+  const int columns = static_cast<int>(state.range(0)), rows = columns * 3 / 4;
+  const xp::WarpLanes lanes = static_cast<xp::WarpLanes>(state.range(1));
+  if (!xp::WarpLanesAvailable(lanes))
+  {
+    state.SkipWithError("this CPU has not the lanes asked for");
+    return;
+  }
+  const std::vector<uint16_t> moving = Shapes(columns, rows, 0.0, 20.0, 1);
+  const std::vector<xp::PixelIndex> pixels = CentralPixels(columns, rows);
+  xp::Motion2D motion;
+  motion.center = { columns / 2.0, rows / 2.0 };
+  motion.shift = { 1.3, -0.7 };
+  motion.rotation = 1.5;
+  std::vector<uint16_t> out;
+  std::vector<uint8_t> valid;
+  for (auto _ : state)
+  {
+    xp::WarpPixels(moving, columns, rows, motion, pixels, out, valid, lanes);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<long long>(pixels.size()));
+}
+BENCHMARK(Warp)
+  ->ArgNames({ "columns", "lanes" })
+  ->ArgsProduct({ { 256, 512 }, { 1, 4, 8 } })
+  ->Unit(benchmark::kMicrosecond);
+
+void HistogramMI(benchmark::State& state)
+{
+  const int columns = static_cast<int>(state.range(0)), rows = columns * 3 / 4, bins = static_cast<int>(state.range(1));
+  const std::vector<uint16_t> fixed = Shapes(columns, rows, 0.0, 20.0, 1), moving = Shapes(columns, rows, 3.0, 20.0, 2);
+  std::vector<uint8_t> mask(fixed.size());
+  for (size_t i = 0; i < mask.size(); ++i)
+    mask[i] = (i / 16) % 2 == 0; // half the pixels, in runs
+  xp::JointHistogram histogram(bins);
+  for (auto _ : state)
+  {
+    histogram.Compute(fixed.data(), moving.data(), static_cast<long long>(fixed.size()), mask.data(), mask.data());
+    benchmark::DoNotOptimize(histogram.MutualInformation());
+  }
+  state.SetItemsProcessed(state.iterations() * static_cast<long long>(fixed.size()));
+}
+BENCHMARK(HistogramMI)->ArgNames({ "columns", "bins" })->ArgsProduct({ { 256, 512 }, { 32, 64 } })->Unit(benchmark::kMicrosecond);
+
+void Register2D(benchmark::State& state)
+{
+  const int columns = 256, rows = 192;
+  const std::vector<uint16_t> fixed = Shapes(columns, rows, 0.0, 20.0, 1), moving = Shapes(columns, rows, 4.0, 20.0, 2);
+  for (auto _ : state)
+    benchmark::DoNotOptimize(xp::Register2D(fixed, moving, columns, rows, { columns / 2.0, rows / 2.0 }).shift);
+}
+BENCHMARK(Register2D)->Unit(benchmark::kMillisecond);
+
+} // namespace
+
+BENCHMARK_MAIN();
