@@ -621,6 +621,203 @@ __attribute__((target("avx512f,avx512bw"))) void SamplePacketAVX512(
 const bool HaveAVX2 = (__builtin_cpu_init(), __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"));
 const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
 const bool IsAMD = __builtin_cpu_is("amd");
+const bool HaveAVX512VL = HaveAVX512 && __builtin_cpu_supports("avx512vl");
+
+// Clang has no optimize attribute; it fuses only within one source expression, which the
+// intrinsics below never are.
+#if defined(__clang__)
+#define XP_EXACT_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw")))
+#else
+#define XP_EXACT_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw"), optimize("fp-contract=off")))
+#endif
+
+/** Eight doubles, the given lanes of b where `pick`, of a elsewhere. */
+#define XP_PICK(pick, a, b) _mm512_mask_mov_pd((a), (pick), (b))
+
+/**
+ * FirstOccupied for eight rays at once: each lane walks the blocks as WalkBlocks does (the same
+ * operations in the same order; std::min's and std::max's choices on ties), until its ray enters
+ * an occupied block, leaves the grid or reaches tExit. Lanes not in `lanes` take no step; their
+ * result is Infinity.
+ */
+XP_EXACT_AVX512 __m512d FirstOccupiedAVX512(const AttenuationVolume& volume, const __m512d start[3], const __m512d direction[3],
+  __m512d tEnter, __m512d tExit, __mmask8 lanes)
+{
+  const __m512d blockSize = _mm512_set1_pd(static_cast<double>(1 << AttenuationVolume::BlockShift));
+  const __m512d zero = _mm512_setzero_pd(), infinity = _mm512_set1_pd(Infinity);
+  const Eigen::Vector3i& blocks = volume.BlockDimensions();
+  const int blockStrides[3] = { 1, blocks[0], blocks[0] * blocks[1] };
+  __m512d tNext[3], tDelta[3];
+  __m256i stride[3], left[3];
+  __m256i index = _mm256_setzero_si256();
+  for (int a = 0; a < 3; ++a)
+  {
+    const __m512d entry = _mm512_add_pd(start[a], _mm512_mul_pd(tEnter, direction[a]));
+    __m256i cell = _mm512_cvttpd_epi32(_mm512_div_pd(entry, blockSize));
+    cell = _mm256_min_epi32(_mm256_max_epi32(cell, _mm256_setzero_si256()), _mm256_set1_epi32(blocks[a] - 1));
+    const __m512d d = direction[a];
+    const __mmask8 positive = _mm512_cmp_pd_mask(d, zero, _CMP_GT_OQ), flat = _mm512_cmp_pd_mask(d, zero, _CMP_EQ_OQ);
+    index = _mm256_add_epi32(index, _mm256_mullo_epi32(cell, _mm256_set1_epi32(blockStrides[a])));
+    stride[a] = _mm256_mask_mov_epi32(_mm256_set1_epi32(-blockStrides[a]), positive, _mm256_set1_epi32(blockStrides[a]));
+    left[a] = _mm256_mask_mov_epi32(cell, positive, _mm256_sub_epi32(_mm256_set1_epi32(blocks[a] - 1), cell));
+    const __m256i boundary = _mm256_mask_add_epi32(cell, positive, cell, _mm256_set1_epi32(1));
+    const __m512d next = _mm512_div_pd(_mm512_sub_pd(_mm512_mul_pd(_mm512_cvtepi32_pd(boundary), blockSize), start[a]), d);
+    tNext[a] = XP_PICK(flat, next, infinity);
+    tDelta[a] = XP_PICK(flat, _mm512_div_pd(blockSize, _mm512_abs_pd(d)), infinity);
+  }
+  const uint8_t* occupied = volume.OccupancyGrid();
+  __m512d t = tEnter, first = infinity;
+  __mmask8 active = lanes;
+  while (true)
+  {
+    active &= _mm512_cmp_pd_mask(t, tExit, _CMP_LT_OQ);
+    if (!active)
+      break;
+    alignas(32) int at[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(at), index);
+    __mmask8 found = 0;
+    for (int l = 0; l < 8; ++l)
+      if (((active >> l) & 1) && occupied[at[l]] != 0)
+        found |= static_cast<__mmask8>(1u << l);
+    first = _mm512_mask_mov_pd(first, found, t);
+    active &= static_cast<__mmask8>(~found);
+    if (!active)
+      break;
+    // std::min(tx, std::min(ty, tz)): (b < a) ? b : a at each step.
+    const __m512d yz = XP_PICK(_mm512_cmp_pd_mask(tNext[2], tNext[1], _CMP_LT_OQ), tNext[1], tNext[2]);
+    const __m512d tStep = XP_PICK(_mm512_cmp_pd_mask(yz, tNext[0], _CMP_LT_OQ), tNext[0], yz);
+    t = _mm512_mask_mov_pd(t, active, XP_PICK(_mm512_cmp_pd_mask(tExit, tStep, _CMP_LT_OQ), tStep, tExit));
+    __mmask8 exhausted = 0;
+    for (int a = 0; a < 3; ++a)
+    {
+      const __mmask8 steps = active & _mm512_cmp_pd_mask(tNext[a], tStep, _CMP_EQ_OQ);
+      index = _mm256_mask_add_epi32(index, steps, index, stride[a]);
+      // tNext + (steps ? tDelta : 0.0), as the scalar walk adds.
+      tNext[a] = _mm512_mask_add_pd(tNext[a], active, tNext[a], _mm512_maskz_mov_pd(steps, tDelta[a]));
+      left[a] = _mm256_mask_sub_epi32(left[a], steps, left[a], _mm256_set1_epi32(1));
+      exhausted |= _mm256_cmp_epi32_mask(left[a], _mm256_setzero_si256(), _MM_CMPINT_LT);
+    }
+    active &= static_cast<__mmask8>(~exhausted);
+  }
+  return first;
+}
+
+/**
+ * SetUpPlaneRay, OccupiedSpan and the packet's sample range for rays [lane0, lane0 + count) of a
+ * packet (count <= 8), eight at a time: per lane the scalar functions' operations in their order,
+ * none fused, so every PlaneRay and sample range is theirs to the bit
+ * (RayCasterAnalytic.ThePacketsRaysSetUpEightAtATimeGiveTheIntegralsToTheBit).
+ */
+XP_EXACT_AVX512 void SetUpRaysAVX512(const AttenuationVolume& volume, const IndexRay* rays, int count, RayPacket& packet, int lane0)
+{
+  alignas(64) double in[7][8] = {};
+  for (int l = 0; l < 8; ++l)
+  {
+    const IndexRay& ray = rays[std::min(l, count - 1)];
+    for (int a = 0; a < 3; ++a)
+      in[a][l] = ray.start[a], in[3 + a][l] = ray.direction[a];
+    in[6][l] = ray.length;
+  }
+  const __mmask8 lanes = static_cast<__mmask8>((1u << count) - 1u);
+  const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
+  __m512d start[3], direction[3];
+  for (int a = 0; a < 3; ++a)
+    start[a] = _mm512_load_pd(in[a]), direction[a] = _mm512_load_pd(in[3 + a]);
+  // ClipForInterpolation: ClipToBox against [0, padded - 1 - 1e-4].
+  const Eigen::Vector3d upperD = volume.PaddedDimensions().cast<double>() - Eigen::Vector3d::Constant(1.0 + 1e-4);
+  __m512d tEnter = zero, tExit = _mm512_load_pd(in[6]);
+  __mmask8 hit = lanes;
+  for (int a = 0; a < 3; ++a)
+  {
+    const __m512d d = direction[a], p = start[a], hi = _mm512_set1_pd(upperD[a]);
+    const __mmask8 flat = _mm512_cmp_pd_mask(d, zero, _CMP_EQ_OQ);
+    hit &= static_cast<__mmask8>(~(flat & (_mm512_cmp_pd_mask(p, zero, _CMP_LT_OQ) | _mm512_cmp_pd_mask(p, hi, _CMP_GT_OQ))));
+    __m512d ta = _mm512_div_pd(_mm512_sub_pd(zero, p), d), tb = _mm512_div_pd(_mm512_sub_pd(hi, p), d);
+    const __mmask8 swap = _mm512_cmp_pd_mask(ta, tb, _CMP_GT_OQ);
+    const __m512d low = XP_PICK(swap, ta, tb), high = XP_PICK(swap, tb, ta);
+    const __mmask8 sloped = static_cast<__mmask8>(~flat);
+    // std::max(t0, ta), std::min(t1, tb)
+    tEnter = _mm512_mask_mov_pd(tEnter, sloped & _mm512_cmp_pd_mask(tEnter, low, _CMP_LT_OQ), low);
+    tExit = _mm512_mask_mov_pd(tExit, sloped & _mm512_cmp_pd_mask(high, tExit, _CMP_LT_OQ), high);
+  }
+  hit &= _mm512_cmp_pd_mask(tEnter, tExit, _CMP_LT_OQ);
+  // The dominant axis (Eigen's maxCoeff: the first of equal ones), and b, c as SetUpPlaneRay takes them.
+  const __m512d ax = _mm512_abs_pd(direction[0]), ay = _mm512_abs_pd(direction[1]), az = _mm512_abs_pd(direction[2]);
+  const __mmask8 overX = _mm512_cmp_pd_mask(ay, ax, _CMP_GT_OQ);
+  const __m512d largest = XP_PICK(overX, ax, ay);
+  const __mmask8 isZ = _mm512_cmp_pd_mask(az, largest, _CMP_GT_OQ), isY = overX & static_cast<__mmask8>(~isZ),
+                 isX = static_cast<__mmask8>(~(isY | isZ));
+  const auto along = [&](const __m512d v[3], __mmask8 x, __mmask8 y) { return XP_PICK(y, XP_PICK(x, v[2], v[0]), v[1]); };
+  // a: X, Y or Z; b: Y where a is X, else X; c: Z unless a is, then Y.
+  const __m512d da = along(direction, isX, isY), startA = along(start, isX, isY);
+  const __m512d db = XP_PICK(isX, direction[0], direction[1]), startB = XP_PICK(isX, start[0], start[1]);
+  const __m512d dc = XP_PICK(isZ, direction[2], direction[1]), startC = XP_PICK(isZ, start[2], start[1]);
+  const __m512d upperB = XP_PICK(isX, _mm512_set1_pd(upperD[0]), _mm512_set1_pd(upperD[1]));
+  const __m512d upperC = XP_PICK(isZ, _mm512_set1_pd(upperD[2]), _mm512_set1_pd(upperD[1]));
+  const __mmask8 forward = _mm512_cmp_pd_mask(da, zero, _CMP_GT_OQ);
+  const __m512d entryA = _mm512_add_pd(startA, _mm512_mul_pd(tEnter, da));
+  const __m512d roundedA = XP_PICK(forward, _mm512_roundscale_pd(entryA, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
+    _mm512_roundscale_pd(entryA, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
+  const __m256i m0 = _mm512_cvttpd_epi32(roundedA);
+  const __m512d t0 = _mm512_div_pd(_mm512_sub_pd(_mm512_cvtepi32_pd(m0), startA), da);
+  const __m512d dt = _mm512_div_pd(one, _mm512_abs_pd(da));
+  const __m512d perPlaneB = _mm512_mul_pd(dt, db), perPlaneC = _mm512_mul_pd(dt, dc);
+  const __m512d firstB = _mm512_add_pd(startB, _mm512_mul_pd(t0, db)), firstC = _mm512_add_pd(startC, _mm512_mul_pd(t0, dc));
+  // OccupiedSpan: the first occupied block from the entry, then from the exit on the reversed ray.
+  const __m512d infinity = _mm512_set1_pd(Infinity);
+  const __m512d tFirst = FirstOccupiedAVX512(volume, start, direction, tEnter, tExit, hit);
+  const __mmask8 spanned = hit & _mm512_cmp_pd_mask(tFirst, infinity, _CMP_NEQ_OQ);
+  const __m512d mirror = _mm512_add_pd(tEnter, tExit);
+  __m512d reversedStart[3], reversedDirection[3];
+  for (int a = 0; a < 3; ++a)
+  {
+    reversedStart[a] = _mm512_add_pd(start[a], _mm512_mul_pd(mirror, direction[a]));
+    // -d (the sign flipped, as Eigen's negation), not 0 - d, which differs at 0.
+    reversedDirection[a] = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(direction[a]), _mm512_set1_epi64(INT64_MIN)));
+  }
+  const __m512d uLast = FirstOccupiedAVX512(volume, reversedStart, reversedDirection, tEnter, _mm512_sub_pd(mirror, tFirst), spanned);
+  const __m512d tLast = XP_PICK(_mm512_cmp_pd_mask(uLast, infinity, _CMP_EQ_OQ), _mm512_sub_pd(mirror, uLast), tExit);
+  // EndSample, SamplesIn(tFirst, tLast), and the packet's margin of one sample either side.
+  const auto ceilOf = [&](__m512d x) { return _mm512_cvttpd_epi32(_mm512_roundscale_pd(x, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC)); };
+  const __m256i endSample = ceilOf(_mm512_div_pd(_mm512_sub_pd(tExit, t0), dt));
+  const __m256i j0 = _mm256_max_epi32(_mm256_setzero_si256(), ceilOf(_mm512_div_pd(_mm512_sub_pd(tFirst, t0), dt)));
+  const __m512d runEnd = XP_PICK(_mm512_cmp_pd_mask(tExit, tLast, _CMP_LT_OQ), tLast, tExit);
+  const __m256i j1 = ceilOf(_mm512_div_pd(_mm512_sub_pd(runEnd, t0), dt));
+  const __m256i firstSample = _mm256_max_epi32(_mm256_setzero_si256(), _mm256_sub_epi32(j0, _mm256_set1_epi32(1)));
+  const __m256i lastSample = _mm256_min_epi32(endSample, _mm256_add_epi32(j1, _mm256_set1_epi32(1)));
+
+  alignas(64) double outTEnter[8], outTExit[8], outT0[8], outDt[8];
+  alignas(32) int outM0[8], outFirst[8], outLast[8];
+  alignas(32) float outB0[8], outDb[8], outC0[8], outDc[8], outUpperB[8], outUpperC[8];
+  _mm512_store_pd(outTEnter, tEnter), _mm512_store_pd(outTExit, tExit), _mm512_store_pd(outT0, t0), _mm512_store_pd(outDt, dt);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(outM0), m0);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(outFirst), firstSample);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(outLast), lastSample);
+  _mm256_store_ps(outB0, _mm512_cvtpd_ps(firstB)), _mm256_store_ps(outDb, _mm512_cvtpd_ps(perPlaneB));
+  _mm256_store_ps(outC0, _mm512_cvtpd_ps(firstC)), _mm256_store_ps(outDc, _mm512_cvtpd_ps(perPlaneC));
+  _mm256_store_ps(outUpperB, _mm512_cvtpd_ps(upperB)), _mm256_store_ps(outUpperC, _mm512_cvtpd_ps(upperC));
+  const int nx = volume.PaddedDimensions()[0], ny = volume.PaddedDimensions()[1], nxy = nx * ny;
+  for (int l = 0; l < count; ++l)
+  {
+    PlaneRay& out = packet.rays[lane0 + l];
+    if (!((hit >> l) & 1))
+      continue; // missed: axis -1, as SetUpPlaneRay leaves it
+    const int a = ((isX >> l) & 1) ? 0 : ((isY >> l) & 1) ? 1 : 2;
+    const bool yFastest = a == 0;
+    out.axis = a;
+    out.tEnter = outTEnter[l], out.tExit = outTExit[l], out.t0 = outT0[l], out.dt = outDt[l];
+    out.planes = PlaneRun{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), a == 0 ? ny : a == 1 ? nx : nxy,
+      a == 2 ? nx : nxy, outM0[l], ((forward >> l) & 1) ? 1 : -1, outB0[l], outDb[l], outC0[l], outDc[l], outUpperB[l],
+      outUpperC[l] };
+    if ((spanned >> l) & 1)
+    {
+      packet.first[lane0 + l] = outFirst[l];
+      packet.last[lane0 + l] = outLast[l];
+    }
+  }
+}
+#undef XP_PICK
+
 
 /** How TracePacket samples a packet: two AVX2 passes of eight lanes, or one AVX-512 pass of
  *  sixteen reading voxel rows with loads where it can, or with gathers. */
@@ -642,30 +839,39 @@ PacketPath PacketPathOf(const RayCastSettings& settings)
 /**
  * Line integrals of a packet's `count` rays (at most Size) into integrals[0..count-1]: one pass
  * per distinct (axis, direction) among its rays, one pass except where the dominant axis changes
- * across the panel, along `path`. Lanes from `count` on take no samples.
+ * across the panel, along `path`. Lanes from `count` on take no samples. With `wideSetUp` (AVX-512
+ * F, VL and BW) the rays are set up eight at a time, else one at a time: the same packet.
  */
 void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, int count, const std::array<int, 3>& planeSteps,
-  PacketPath path, float* integrals)
+  PacketPath path, bool wideSetUp, float* integrals)
 {
   RayPacket packet;
   const long long voxelCount = static_cast<long long>(volume.VoxelCount());
-  for (int r = 0; r < count; ++r)
+  if (wideSetUp)
   {
-    PlaneRay& planeRay = packet.rays[r];
-    planeRay = SetUpPlaneRay(volume, rays[r]);
-    if (planeRay.axis < 0)
+    for (int lane0 = 0; lane0 < count; lane0 += 8)
+      SetUpRaysAVX512(volume, rays + lane0, std::min(8, count - lane0), packet, lane0);
+  }
+  else
+  {
+    for (int r = 0; r < count; ++r)
     {
-      continue;
-    }
-    // The packet samples from the first occupied block to the last, empty ones between included,
-    // and one sample more at either end against rounding (in empty blocks samples are exactly 0).
-    double tFirst, tLast;
-    if (OccupiedSpan(volume, rays[r], planeRay.tEnter, planeRay.tExit, tFirst, tLast))
-    {
-      int first, last;
-      planeRay.SamplesIn(tFirst, tLast, first, last);
-      packet.first[r] = std::max(0, first - 1);
-      packet.last[r] = std::min(planeRay.EndSample(), last + 1);
+      PlaneRay& planeRay = packet.rays[r];
+      planeRay = SetUpPlaneRay(volume, rays[r]);
+      if (planeRay.axis < 0)
+      {
+        continue;
+      }
+      // The packet samples from the first occupied block to the last, empty ones between included,
+      // and one sample more at either end against rounding (in empty blocks samples are exactly 0).
+      double tFirst, tLast;
+      if (OccupiedSpan(volume, rays[r], planeRay.tEnter, planeRay.tExit, tFirst, tLast))
+      {
+        int first, last;
+        planeRay.SamplesIn(tFirst, tLast, first, last);
+        packet.first[r] = std::max(0, first - 1);
+        packet.last[r] = std::min(planeRay.EndSample(), last + 1);
+      }
     }
   }
   std::fill(integrals, integrals + RayPacket::Size, 0.0f);
@@ -1042,6 +1248,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   if (packets)
   {
     const PacketPath path = PacketPathOf(settings);
+    const bool wideSetUp = settings.wideSetUp && path != PacketPath::EightLanes && HaveAVX512VL;
     const std::vector<int>& starts = pixels.PacketStarts();
     const long long packetCount = static_cast<long long>(starts.size()) - 1;
     ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
@@ -1056,7 +1263,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
           {
             rays[r] = rayOf(order[firstRay + r]);
           }
-          TracePacket(volume, rays, count, settings.planeSteps, path, integrals);
+          TracePacket(volume, rays, count, settings.planeSteps, path, wideSetUp, integrals);
           for (int r = 0; r < count; ++r)
           {
             lineIntegrals[order[firstRay + r]] = integrals[r];

@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <functional>
 #include <set>
@@ -442,6 +443,74 @@ TEST(RayCasterAnalytic, SixteenLanesGiveEightLanesIntegralsToTheBit)
       }
     }
   }
+}
+
+TEST(RayCasterAnalytic, ThePacketsRaysSetUpEightAtATimeGiveTheIntegralsToTheBit)
+{
+  if (!xp::HasWideVectorRayCaster())
+  {
+    GTEST_SKIP() << "this CPU has no AVX-512: the ray caster's sixteen lanes are not used here";
+  }
+  // Two objects with empty blocks between and around them (the walks skip blocks at both ends and
+  // meet empty ones between), under panels whose rays run obliquely (the dominant axis changing
+  // across the panel), exactly along an index axis (direction components of 0, some rays outside
+  // the volume's slab) and past the volume altogether; every plane and every second one, masked
+  // pixels so that packets hold fewer than sixteen rays.
+  const xp::AttenuationVolume volume = MakeVolume(100,
+    [](const Eigen::Vector3d& p)
+    {
+      const bool sphere = (p - Eigen::Vector3d(-30, 12, -5)).norm() < 12.0;
+      const bool box = (p - Eigen::Vector3d(28, -6, 9)).cwiseAbs().maxCoeff() < 9.0;
+      return sphere || box ? 1.0 + 0.3 * std::sin(0.7 * p[0] + 0.2 * p[1]) : 0.0;
+    });
+  struct Panel
+  {
+    Eigen::Vector3d source, centre, columnStep, rowStep;
+  };
+  const Eigen::Vector3d diagonal = Eigen::Vector3d(1, -1, 0.2).normalized();
+  const std::vector<Panel> panels = {
+    { { -500, -500, 10 }, { 350, 350, 0 }, 5.0 * diagonal, { 0.1, 0, 1.1 } },
+    { { -600, 0, 0 }, { 400, 0, 0 }, { 0, 2.0, 0 }, { 0, 0, 2.0 } },   // along x: the central row's rays have dz = 0
+    { { 0, 0, -700 }, { 0, 0, 400 }, { 2.5, 0, 0 }, { 0, 2.5, 0 } },   // along z, rays beyond the slab's sides
+    { { -500, 400, 0 }, { 500, 400, 0 }, { 0, 1.5, 0 }, { 0, 0, 1.5 } }, // past the volume: every ray misses
+  };
+  const int columns = 61, rows = 37;
+  const size_t n = static_cast<size_t>(columns) * rows;
+  std::vector<uint8_t> mask(n);
+  for (size_t i = 0; i < n; ++i)
+    mask[i] = (i * 7) % 5 != 2;
+  int crossing = 0;
+  for (size_t p = 0; p < panels.size(); ++p)
+  {
+    xp::DetectorGrid grid;
+    grid.columns = columns;
+    grid.rows = rows;
+    grid.columnStep = panels[p].columnStep;
+    grid.rowStep = panels[p].rowStep;
+    grid.origin = panels[p].centre - 30.0 * grid.columnStep - 18.0 * grid.rowStep;
+    for (const int step : { 1, 2 })
+      for (const uint8_t* pixels : { static_cast<const uint8_t*>(nullptr), static_cast<const uint8_t*>(mask.data()) })
+        for (const xp::VoxelReads reads : { xp::VoxelReads::Loads, xp::VoxelReads::Gathers })
+        {
+          xp::RayCastSettings settings;
+          settings.planeSteps = { step, step, step };
+          settings.voxelReads = reads;
+          std::vector<float> one(n, -2.0f), eight(n, -1.0f);
+          settings.wideSetUp = false;
+          xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), panels[p].source, grid, pixels, one.data(), settings);
+          settings.wideSetUp = true;
+          xp::RenderLineIntegrals(volume, Eigen::Isometry3d::Identity(), panels[p].source, grid, pixels, eight.data(), settings);
+          int differ = 0;
+          for (size_t i = 0; i < n; ++i)
+          {
+            differ += std::memcmp(&one[i], &eight[i], sizeof(float)) != 0;
+            crossing += one[i] > 0.0f;
+          }
+          EXPECT_EQ(differ, 0) << "panel " << p << ", plane step " << step << (pixels ? ", masked" : "") << ", "
+                               << xp::ToString(reads);
+        }
+  }
+  EXPECT_GT(crossing, static_cast<int>(n)) << "the rays must cross the objects";
 }
 
 TEST(RayCasterAnalytic, PlaneStepsSampleEveryNthPlaneWeighingItsLength)
