@@ -275,11 +275,16 @@ void OrWindows(const uint8_t* in, Index count, Index width, Index stride, uint8_
 
 /**
  * Square in-slice dilation by `radius` voxels, separable: along each row, then down the columns
- * (whole rows at a time), each an OR over the window (OrWindows). Slices run on all threads.
+ * (whole rows at a time), each an OR over the window (OrWindows), into `out`. Slices run on all
+ * threads. Row y of slice z comes as 0/1 from rowIn(z, y, row) (its nx voxels into `row`), and
+ * each dilated slice, while it is still in the cache, goes through sliceOut(z, slice), whose counts
+ * are summed and returned: a pass over the volume each that the segmentation saves.
  */
-void DilateSlices(std::vector<uint8_t>& body, const Eigen::Vector3i& d, int radius)
+template <typename RowIn, typename SliceOut>
+long long DilateSlices(std::vector<uint8_t>& out, const Eigen::Vector3i& d, int radius, RowIn rowIn, SliceOut sliceOut)
 {
   const Index nx = d[0], ny = d[1], slice = nx * ny, r = radius, width = 2 * r + 1;
+  std::atomic<long long> total{ 0 };
   vtkSMPTools::For(Index{ 0 }, Index{ d[2] }, Index{ 1 },
     [&](Index firstSlice, Index endSlice)
     {
@@ -288,20 +293,35 @@ void DilateSlices(std::vector<uint8_t>& body, const Eigen::Vector3i& d, int radi
       std::vector<uint8_t> row(static_cast<size_t>(nx + 2 * r), 0);
       std::vector<uint8_t> rows(static_cast<size_t>((ny + 2 * r) * nx), 0);
       std::vector<uint8_t> a, b;
+      long long here = 0;
       for (Index z = firstSlice; z < endSlice; ++z)
       {
-        uint8_t* s = body.data() + z * slice;
+        uint8_t* s = out.data() + z * slice;
         for (Index y = 0; y < ny; ++y)
         {
-          const uint8_t* in = s + y * nx;
-          uint8_t* padded = row.data() + r;
-          for (Index x = 0; x < nx; ++x)
-            padded[x] = in[x] != 0;
+          rowIn(z, y, row.data() + r);
           OrWindows(row.data(), nx, width, 1, rows.data() + (y + r) * nx, a, b);
         }
         OrWindows(rows.data(), ny, width, nx, s, a, b);
+        here += sliceOut(z, s);
       }
+      total += here;
     });
+  return total;
+}
+
+/** DilateSlices of `body` in place. */
+void DilateSlices(std::vector<uint8_t>& body, const Eigen::Vector3i& d, int radius)
+{
+  const Index nx = d[0], slice = nx * d[1];
+  DilateSlices(body, d, radius,
+    [&](Index z, Index y, uint8_t* row)
+    {
+      const uint8_t* in = body.data() + z * slice + y * nx;
+      for (Index x = 0; x < nx; ++x)
+        row[x] = in[x] != 0;
+    },
+    [](Index, uint8_t*) { return 0LL; });
 }
 
 } // namespace
@@ -318,14 +338,26 @@ std::vector<uint8_t> SegmentBody(const HU* hu, const Eigen::Vector3i& dims, cons
   // Opening: an erosion removes thin shells (a table's carbon skin, a mask's mesh) before the
   // components are counted, so that they cannot join the body or count as a limb. The erosion
   // is the dilation of what is not tissue.
+  // Each slice's non-tissue read from the HU and dilated, then inverted and counted while it is in
+  // the cache.
+  const Index nx = dims[0], slice = nx * dims[1];
   std::vector<uint8_t> core(count);
-  ForVoxels(count, [&](size_t i) { core[i] = !(hu[i] > threshold); });
-  DilateSlices(core, dims, settings.openingRadius);
-  const long long cores = CountVoxels(count,
-    [&](size_t i)
+  const long long cores = DilateSlices(core, dims, settings.openingRadius,
+    [&](Index z, Index y, uint8_t* row)
     {
-      core[i] = !core[i];
-      return core[i] != 0;
+      const HU* in = hu + z * slice + y * nx;
+      for (Index x = 0; x < nx; ++x)
+        row[x] = !(in[x] > threshold);
+    },
+    [&](Index, uint8_t* s)
+    {
+      long long kept = 0;
+      for (Index i = 0; i < slice; ++i)
+      {
+        s[i] = !s[i];
+        kept += s[i] != 0;
+      }
+      return kept;
     });
   if (cores == 0)
   {
@@ -334,9 +366,22 @@ std::vector<uint8_t> SegmentBody(const HU* hu, const Eigen::Vector3i& dims, cons
   }
   KeepLargeComponents(core, dims, settings.minComponentFraction);
   std::vector<uint8_t> body = std::move(core);
-  // Back to the tissue's own outline: what the opening took from the kept parts.
-  DilateSlices(body, dims, settings.openingRadius + 1);
-  ForVoxels(count, [&](size_t i) { body[i] = body[i] && hu[i] > threshold; });
+  // Back to the tissue's own outline: what the opening took from the kept parts (each slice
+  // dilated, then ANDed with the tissue).
+  DilateSlices(body, dims, settings.openingRadius + 1,
+    [&](Index z, Index y, uint8_t* row)
+    {
+      const uint8_t* in = body.data() + z * slice + y * nx;
+      for (Index x = 0; x < nx; ++x)
+        row[x] = in[x] != 0;
+    },
+    [&](Index z, uint8_t* s)
+    {
+      const HU* tissue = hu + z * slice;
+      for (Index i = 0; i < slice; ++i)
+        s[i] = s[i] && tissue[i] > threshold;
+      return 0LL;
+    });
   FillSliceCavities(body, dims);
   if (settings.dilation > 0)
     DilateSlices(body, dims, settings.dilation);
