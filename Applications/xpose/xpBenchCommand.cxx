@@ -166,16 +166,20 @@ int RunBenchDRR(const BenchOptions& options)
   if (HasWideVectorRayCaster() && device == ComputeDevice::CPU)
   {
     // The same rays sixteen at a time (AVX-512), their voxels read by row loads or by gathers,
-    // and eight at a time (AVX2), taking turns in this run: the same integrals to the bit, in
+    // and eight at a time (AVX2); and the CPU's default with each packet's rays set up one at a
+    // time instead of eight: taking turns in this run, the same integrals to the bit, in
     // different times. Masked too, as a registration renders.
+    const VoxelReads reads = WideVoxelReadsOf(VoxelReads::Auto);
     std::printf("\nRays per packet (trilinear, the same integrals): 16 lanes with AVX-512, voxels read by row loads or "
-                "by gathers, against 8 with AVX2; this CPU's default: %s\n%-9s %-9s %-7s %12s %14s %12s %12s %12s\n",
-      ToString(WideVoxelReadsOf(VoxelReads::Auto)), "size", "valid (%)", "threads", "loads (s)", "gathers (s)", "8 lanes (s)",
-      "gathers/loads", "8 / loads");
-    RayCastSettings loads = Settings(RayCastMethod::Trilinear), gathers = loads, narrow = loads;
+                "by gathers, against 8 with AVX2; this CPU's default: %s, its rays set up 8 at a time (\"1 by 1\": the "
+                "default set up one at a time)\n%-9s %-9s %-7s %12s %14s %12s %12s %12s %12s %12s\n",
+      ToString(reads), "size", "valid (%)", "threads", "loads (s)", "gathers (s)", "8 lanes (s)", "1 by 1 (s)",
+      "gathers/loads", "8 / loads", "default/1by1");
+    RayCastSettings loads = Settings(RayCastMethod::Trilinear), gathers = loads, narrow = loads, oneByOne = loads;
     loads.voxelReads = VoxelReads::Loads;
     gathers.voxelReads = VoxelReads::Gathers;
     narrow.wideVectors = false;
+    oneByOne.wideSetUp = false;
     const auto compare = [&](const std::string& size, int c, int r, const std::vector<std::vector<uint8_t>>* masks, double valid,
                            int threads)
     {
@@ -184,8 +188,10 @@ int RunBenchDRR(const BenchOptions& options)
       const double byLoads = TimeViews(scene, c, r, masks, loads, options.repetitions, rays);
       const double byGathers = TimeViews(scene, c, r, masks, gathers, options.repetitions, rays);
       const double eight = TimeViews(scene, c, r, masks, narrow, options.repetitions, rays);
-      std::printf("%-9s %-9.1f %-7d %12.4f %14.4f %12.4f %11.2fx %11.2fx\n", size.c_str(), 100.0 * valid, threads, byLoads,
-        byGathers, eight, byGathers / byLoads, eight / byLoads);
+      const double single = TimeViews(scene, c, r, masks, oneByOne, options.repetitions, rays);
+      const double byDefault = reads == VoxelReads::Loads ? byLoads : byGathers;
+      std::printf("%-9s %-9.1f %-7d %12.4f %14.4f %12.4f %12.4f %11.2fx %11.2fx %11.2fx\n", size.c_str(), 100.0 * valid,
+        threads, byLoads, byGathers, eight, single, byGathers / byLoads, eight / byLoads, byDefault / single);
     };
     for (const std::string& text : options.sizes)
     {
