@@ -310,18 +310,21 @@ long long DilateSlices(std::vector<uint8_t>& out, const Eigen::Vector3i& d, int 
   return total;
 }
 
+/** DilateSlices' rowIn for a 0/1 volume's own rows (each slice is read before it is written). */
+auto RowsOf(const std::vector<uint8_t>& volume, const Eigen::Vector3i& d)
+{
+  return [&volume, nx = Index{ d[0] }, slice = Index{ d[0] } * d[1]](Index z, Index y, uint8_t* row)
+  {
+    const uint8_t* in = volume.data() + z * slice + y * nx;
+    for (Index x = 0; x < nx; ++x)
+      row[x] = in[x] != 0;
+  };
+}
+
 /** DilateSlices of `body` in place. */
 void DilateSlices(std::vector<uint8_t>& body, const Eigen::Vector3i& d, int radius)
 {
-  const Index nx = d[0], slice = nx * d[1];
-  DilateSlices(body, d, radius,
-    [&](Index z, Index y, uint8_t* row)
-    {
-      const uint8_t* in = body.data() + z * slice + y * nx;
-      for (Index x = 0; x < nx; ++x)
-        row[x] = in[x] != 0;
-    },
-    [](Index, uint8_t*) { return 0LL; });
+  DilateSlices(body, d, radius, RowsOf(body, d), [](Index, uint8_t*) { return 0LL; });
 }
 
 } // namespace
@@ -368,13 +371,7 @@ std::vector<uint8_t> SegmentBody(const HU* hu, const Eigen::Vector3i& dims, cons
   std::vector<uint8_t> body = std::move(core);
   // Back to the tissue's own outline: what the opening took from the kept parts (each slice
   // dilated, then ANDed with the tissue).
-  DilateSlices(body, dims, settings.openingRadius + 1,
-    [&](Index z, Index y, uint8_t* row)
-    {
-      const uint8_t* in = body.data() + z * slice + y * nx;
-      for (Index x = 0; x < nx; ++x)
-        row[x] = in[x] != 0;
-    },
+  DilateSlices(body, dims, settings.openingRadius + 1, RowsOf(body, dims),
     [&](Index z, uint8_t* s)
     {
       const HU* tissue = hu + z * slice;
