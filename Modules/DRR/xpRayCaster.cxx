@@ -702,6 +702,19 @@ XP_EXACT_AVX512 __m512d FirstOccupiedAVX512(const AttenuationVolume& volume, con
   return first;
 }
 
+/** Per lane, v[0] where `x`, v[1] where `y`, else v[2]. (Functions, not lambdas: Clang does not
+ *  give a lambda its enclosing function's target.) */
+XP_EXACT_AVX512 inline __m512d AlongAxis(const __m512d v[3], __mmask8 x, __mmask8 y)
+{
+  return XP_PICK(y, XP_PICK(x, v[2], v[0]), v[1]);
+}
+
+/** static_cast<int>(std::ceil(x)) per lane. */
+XP_EXACT_AVX512 inline __m256i CeilToInt(__m512d x)
+{
+  return _mm512_cvttpd_epi32(_mm512_roundscale_pd(x, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
+}
+
 /**
  * SetUpPlaneRay, OccupiedSpan and the packet's sample range for rays [lane0, lane0 + count) of a
  * packet (count <= 8), eight at a time: per lane the scalar functions' operations in their order,
@@ -747,9 +760,8 @@ XP_EXACT_AVX512 void SetUpRaysAVX512(const AttenuationVolume& volume, const Inde
   const __m512d largest = XP_PICK(overX, ax, ay);
   const __mmask8 isZ = _mm512_cmp_pd_mask(az, largest, _CMP_GT_OQ), isY = overX & static_cast<__mmask8>(~isZ),
                  isX = static_cast<__mmask8>(~(isY | isZ));
-  const auto along = [&](const __m512d v[3], __mmask8 x, __mmask8 y) { return XP_PICK(y, XP_PICK(x, v[2], v[0]), v[1]); };
   // a: X, Y or Z; b: Y where a is X, else X; c: Z unless a is, then Y.
-  const __m512d da = along(direction, isX, isY), startA = along(start, isX, isY);
+  const __m512d da = AlongAxis(direction, isX, isY), startA = AlongAxis(start, isX, isY);
   const __m512d db = XP_PICK(isX, direction[0], direction[1]), startB = XP_PICK(isX, start[0], start[1]);
   const __m512d dc = XP_PICK(isZ, direction[2], direction[1]), startC = XP_PICK(isZ, start[2], start[1]);
   const __m512d upperB = XP_PICK(isX, _mm512_set1_pd(upperD[0]), _mm512_set1_pd(upperD[1]));
@@ -778,11 +790,10 @@ XP_EXACT_AVX512 void SetUpRaysAVX512(const AttenuationVolume& volume, const Inde
   const __m512d uLast = FirstOccupiedAVX512(volume, reversedStart, reversedDirection, tEnter, _mm512_sub_pd(mirror, tFirst), spanned);
   const __m512d tLast = XP_PICK(_mm512_cmp_pd_mask(uLast, infinity, _CMP_EQ_OQ), _mm512_sub_pd(mirror, uLast), tExit);
   // EndSample, SamplesIn(tFirst, tLast), and the packet's margin of one sample either side.
-  const auto ceilOf = [&](__m512d x) { return _mm512_cvttpd_epi32(_mm512_roundscale_pd(x, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC)); };
-  const __m256i endSample = ceilOf(_mm512_div_pd(_mm512_sub_pd(tExit, t0), dt));
-  const __m256i j0 = _mm256_max_epi32(_mm256_setzero_si256(), ceilOf(_mm512_div_pd(_mm512_sub_pd(tFirst, t0), dt)));
+  const __m256i endSample = CeilToInt(_mm512_div_pd(_mm512_sub_pd(tExit, t0), dt));
+  const __m256i j0 = _mm256_max_epi32(_mm256_setzero_si256(), CeilToInt(_mm512_div_pd(_mm512_sub_pd(tFirst, t0), dt)));
   const __m512d runEnd = XP_PICK(_mm512_cmp_pd_mask(tExit, tLast, _CMP_LT_OQ), tLast, tExit);
-  const __m256i j1 = ceilOf(_mm512_div_pd(_mm512_sub_pd(runEnd, t0), dt));
+  const __m256i j1 = CeilToInt(_mm512_div_pd(_mm512_sub_pd(runEnd, t0), dt));
   const __m256i firstSample = _mm256_max_epi32(_mm256_setzero_si256(), _mm256_sub_epi32(j0, _mm256_set1_epi32(1)));
   const __m256i lastSample = _mm256_min_epi32(endSample, _mm256_add_epi32(j1, _mm256_set1_epi32(1)));
 
