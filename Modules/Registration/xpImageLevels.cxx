@@ -196,7 +196,7 @@ namespace
  *  over the whole row, so that the compiler vectorises across outputs. No wider than the grid:
  *  taps beyond it would all read its edge. */
 template <typename T>
-void Blur(std::vector<T>& grid, int w, int h, double sigma, bool normalized = false)
+XP_WIDE_EXACT void Blur(std::vector<T>& grid, int w, int h, double sigma, bool normalized = false)
 {
   const int radius = std::max(1, static_cast<int>(std::min(std::ceil(3.0 * sigma), static_cast<double>(std::max(w, h)))));
   std::vector<T> kernel(2 * radius + 1);
@@ -301,7 +301,7 @@ MaskedLowPass::MaskedLowPass(const uint8_t* mask, int columns, int rows, double 
   }
 }
 
-void MaskedLowPass::Subtract(float* values) const
+XP_WIDE_EXACT void MaskedLowPass::Subtract(float* values) const
 {
   if (this->Weight.empty())
     return;
