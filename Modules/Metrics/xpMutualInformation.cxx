@@ -91,6 +91,25 @@ void JointHistogram::Compute(const uint16_t* fixed, const uint16_t* moving, long
     ++total;
   }
   this->Total = total;
+  this->CountMarginals();
+}
+
+void JointHistogram::Compute(const uint16_t* fixed, const uint16_t* moving, const std::vector<int>& pixels)
+{
+  std::fill(this->JointCounts.begin(), this->JointCounts.end(), 0);
+  const int bins = this->NumberOfBins;
+  const uint16_t* binOf = this->BinOf.data();
+  const int maxValue = this->MaxValue;
+  const auto bin = [&](uint16_t v) { return v > maxValue ? bins - 1 : binOf[v]; };
+  for (const int i : pixels)
+    ++this->JointCounts[static_cast<size_t>(bin(fixed[i])) * bins + bin(moving[i])];
+  this->Total = static_cast<long long>(pixels.size());
+  this->CountMarginals();
+}
+
+void JointHistogram::CountMarginals()
+{
+  const int bins = this->NumberOfBins;
   std::fill(this->FixedCounts.begin(), this->FixedCounts.end(), 0);
   std::fill(this->MovingCounts.begin(), this->MovingCounts.end(), 0);
   for (int f = 0; f < bins; ++f)

@@ -32,6 +32,9 @@ public:
    */
   void Compute(const uint16_t* fixed, const uint16_t* moving, long long count, const uint8_t* fixedMask = nullptr,
     const uint8_t* movingMask = nullptr);
+  /** Counts the pixel pairs at the indices `pixels` lists (a mask's pixels, listed once): the
+   *  counts of Compute with that mask, without reading the pixels it leaves out. */
+  void Compute(const uint16_t* fixed, const uint16_t* moving, const std::vector<int>& pixels);
 
   int Bins() const { return this->NumberOfBins; }
   long long Samples() const { return this->Total; }
@@ -49,6 +52,9 @@ public:
   double NormalizedMutualInformation() const;
 
 private:
+  /** FixedCounts and MovingCounts from JointCounts. */
+  void CountMarginals();
+
   int NumberOfBins;
   int MaxValue;
   long long Total = 0;

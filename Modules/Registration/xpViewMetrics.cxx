@@ -15,13 +15,16 @@ MutualInformationMetric::MutualInformationMetric(const uint8_t* mask, int column
   , HighPassPixels(equalize ? highPassPixels : 0.0)
   , DRRHighPass(mask, columns, rows, HighPassPixels)
 {
+  // Every measure reads only these pixels: a view's masks leave out half of its panel or more.
+  for (size_t i = 0; i < this->XRay.size(); ++i)
+    if (!mask || mask[i])
+      this->Valid.push_back(static_cast<int>(i));
 }
 
 double MutualInformationMetric::Measure(const std::vector<float>& integrals)
 {
   this->Rank(integrals);
-  this->Histogram.Compute(
-    this->XRay.data(), this->DRRRanks.data(), static_cast<long long>(this->XRay.size()), this->Mask, this->Mask);
+  this->Histogram.Compute(this->XRay.data(), this->DRRRanks.data(), this->Valid);
   return this->Histogram.MutualInformation();
 }
 
@@ -44,21 +47,23 @@ void MutualInformationMetric::Rank(const std::vector<float>& integrals)
   // The distributions at the first pose measured fix the levels for every later pose.
   if (this->Integral.Empty())
     this->Integral.Build(integrals.data(), mask, count);
+  // The masked pixels' levels stay 0 (DRRRanks and Scratch start zeroed and are written only at
+  // the valid pixels).
   if (this->HighPassPixels <= 0.0)
   {
-    for (long long i = 0; i < count; ++i)
-      out[i] = (mask && !mask[i]) ? 0 : this->Integral(integrals[i]);
+    for (const int i : this->Valid)
+      out[i] = this->Integral(integrals[i]);
     return;
   }
   std::vector<float>& structure = this->Scratch;
   structure.resize(integrals.size());
-  for (long long i = 0; i < count; ++i)
-    structure[i] = (mask && !mask[i]) ? 0.0f : this->Integral(integrals[i]);
+  for (const int i : this->Valid)
+    structure[i] = this->Integral(integrals[i]);
   this->DRRHighPass.Subtract(structure.data());
   if (this->Structure.Empty())
     this->Structure.Build(structure.data(), mask, count);
-  for (long long i = 0; i < count; ++i)
-    out[i] = (mask && !mask[i]) ? 0 : this->Structure(structure[i]);
+  for (const int i : this->Valid)
+    out[i] = this->Structure(structure[i]);
 }
 
 CorrelationMetric::CorrelationMetric(const uint8_t* mask, int columns, int rows, std::vector<float> xrayStructure, double lowPassPixels)

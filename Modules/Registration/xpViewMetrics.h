@@ -65,14 +65,15 @@ private:
   void Rank(const std::vector<float>& integrals);
 
   const uint8_t* Mask;
+  std::vector<int> Valid; ///< the pixels the mask keeps (every pixel without one), in order
   std::vector<uint16_t> XRay;
-  std::vector<uint16_t> DRRRanks; ///< with equalisation: the levels; without: the 12-bit DRR
+  std::vector<uint16_t> DRRRanks; ///< with equalisation: the levels; without: the 12-bit DRR (0 where masked)
   JointHistogram Histogram;
   bool Equalize = true;
   double HighPassPixels = 0.0;
   MaskedLowPass DRRHighPass;
   LevelTable Integral, Structure;
-  std::vector<float> Scratch;
+  std::vector<float> Scratch; ///< the high-pass's levels (0 where masked: never written there)
 };
 
 /**
