@@ -1,10 +1,11 @@
 /**
- * What the 2D/2D registration's kernels cost per call (Google Benchmark): the warp of a view's
- * pixels, the joint histogram with its mutual information, and one whole 2D registration, on
- * images the size of a registration's half-size views (256 x 192) and full-size views
- * (512 x 384); and the body's segmentation, the attenuation volume and its halving of a CT of
- * a pelvis CT's size (512 x 512 x 140). The images are smooth shapes with a little noise, as DRRs and X-rays are: their
- * neighbouring pixels share histogram bins, which is what the histogram's speed depends on.
+ * What a registration's kernels cost per call (Google Benchmark): the 2D warp of a view's pixels
+ * at each width, the joint histogram with its mutual information, a full-size DRR's high-pass,
+ * one view's measure and one whole 2D registration, on images the size of a registration's
+ * half-size views (256 x 192) and full-size views (512 x 384); and the body's segmentation, the
+ * attenuation volume and its halving of a CT of a pelvis CT's size (512 x 512 x 140). The images
+ * are smooth shapes with a little noise, as DRRs and X-rays are: their neighbouring pixels share
+ * histogram bins, which is what the histogram's speed depends on.
  *
  *   build/bin/xpKernelBenchmarks [--benchmark_filter=REGEX] [--benchmark_repetitions=N]
  */
