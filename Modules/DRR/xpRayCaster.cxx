@@ -3,6 +3,7 @@
 #include "xpAttenuationVolume.h"
 #include "xpCudaRayCaster.h"
 #include "xpError.h"
+#include "xpExactVectors.h"
 #include "xpParallel.h"
 #include "xpXRayView.h"
 
@@ -623,14 +624,6 @@ const bool HaveAVX512 = HaveAVX2 && __builtin_cpu_supports("avx512f") && __built
 const bool IsAMD = __builtin_cpu_is("amd");
 const bool HaveAVX512VL = HaveAVX512 && __builtin_cpu_supports("avx512vl");
 
-// Clang has no optimize attribute; it fuses only within one source expression, which the
-// intrinsics below never are.
-#if defined(__clang__)
-#define XP_EXACT_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw")))
-#else
-#define XP_EXACT_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw"), optimize("fp-contract=off")))
-#endif
-
 /** Eight doubles, the given lanes of b where `pick`, of a elsewhere. */
 #define XP_PICK(pick, a, b) _mm512_mask_mov_pd((a), (pick), (b))
 
@@ -828,7 +821,6 @@ XP_EXACT_AVX512 void SetUpRaysAVX512(const AttenuationVolume& volume, const Inde
   }
 }
 #undef XP_PICK
-
 
 /** How TracePacket samples a packet: two AVX2 passes of eight lanes, or one AVX-512 pass of
  *  sixteen reading voxel rows with loads where it can, or with gathers. */

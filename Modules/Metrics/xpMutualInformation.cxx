@@ -76,10 +76,7 @@ void JointHistogram::Compute(const uint16_t* fixed, const uint16_t* moving, long
   const uint8_t* movingMask)
 {
   std::fill(this->JointCounts.begin(), this->JointCounts.end(), 0);
-  const int bins = this->NumberOfBins;
-  const uint16_t* binOf = this->BinOf.data();
-  const int maxValue = this->MaxValue;
-  const auto bin = [&](uint16_t v) { return v > maxValue ? bins - 1 : binOf[v]; };
+  const size_t bins = static_cast<size_t>(this->NumberOfBins);
   long long total = 0;
   for (long long i = 0; i < count; ++i)
   {
@@ -87,7 +84,7 @@ void JointHistogram::Compute(const uint16_t* fixed, const uint16_t* moving, long
     {
       continue;
     }
-    ++this->JointCounts[static_cast<size_t>(bin(fixed[i])) * bins + bin(moving[i])];
+    ++this->JointCounts[this->Bin(fixed[i]) * bins + this->Bin(moving[i])];
     ++total;
   }
   this->Total = total;
@@ -97,12 +94,9 @@ void JointHistogram::Compute(const uint16_t* fixed, const uint16_t* moving, long
 void JointHistogram::Compute(const uint16_t* fixed, const uint16_t* moving, const std::vector<int>& pixels)
 {
   std::fill(this->JointCounts.begin(), this->JointCounts.end(), 0);
-  const int bins = this->NumberOfBins;
-  const uint16_t* binOf = this->BinOf.data();
-  const int maxValue = this->MaxValue;
-  const auto bin = [&](uint16_t v) { return v > maxValue ? bins - 1 : binOf[v]; };
+  const size_t bins = static_cast<size_t>(this->NumberOfBins);
   for (const int i : pixels)
-    ++this->JointCounts[static_cast<size_t>(bin(fixed[i])) * bins + bin(moving[i])];
+    ++this->JointCounts[this->Bin(fixed[i]) * bins + this->Bin(moving[i])];
   this->Total = static_cast<long long>(pixels.size());
   this->CountMarginals();
 }

@@ -52,6 +52,11 @@ public:
   double NormalizedMutualInformation() const;
 
 private:
+  /** A grey value's bin: values above MaxValue go to the last. */
+  size_t Bin(uint16_t value) const
+  {
+    return value > this->MaxValue ? static_cast<size_t>(this->NumberOfBins - 1) : this->BinOf[value];
+  }
   /** FixedCounts and MovingCounts from JointCounts. */
   void CountMarginals();
 

@@ -1,5 +1,7 @@
 #include "xpImageLevels.h"
 
+#include "xpExactVectors.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>

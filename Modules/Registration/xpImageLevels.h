@@ -18,18 +18,6 @@
 #include <cstdint>
 #include <vector>
 
-/**
- * Built twice, for AVX-512 and for the baseline, and picked at load time: the loops vectorised
- * across outputs run eight doubles (sixteen floats) wide where the CPU has AVX-512. The files
- * that use it compile with -ffp-contract=off (Modules/Registration/CMakeLists.txt), so that no
- * product and sum are fused into one rounding: both builds give the same values to the bit.
- */
-#if defined(__GNUC__) && defined(__x86_64__) && !defined(__clang__)
-#define XP_WIDE_EXACT __attribute__((target_clones("avx512f", "default")))
-#else
-#define XP_WIDE_EXACT
-#endif
-
 namespace xp
 {
 

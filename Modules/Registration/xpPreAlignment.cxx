@@ -1,6 +1,7 @@
 #include "xpPreAlignment.h"
 
 #include "xpError.h"
+#include "xpExactVectors.h"
 #include "xpMutualInformation.h"
 #include "xpPoseOptimizer.h"
 
@@ -131,15 +132,9 @@ __attribute__((target("avx2"))) void WarpPixelRangeAVX2(const uint16_t* moving, 
 
 /**
  * WarpPixelRangeAVX2 eight pixels at a time with AVX-512: the same double operations in the same
- * order, none fused (GCC would contract a product and a sum into one rounding where the target
- * has FMA: contraction is off here), so the values are bit for bit the scalar ones.
+ * order, none fused (XP_EXACT_AVX512), so the values are bit for bit the scalar ones.
  */
-#if defined(__clang__)
-#define XP_WARP_AVX512_TARGET __attribute__((target("avx512f,avx512vl,avx512bw")))
-#else
-#define XP_WARP_AVX512_TARGET __attribute__((target("avx512f,avx512vl,avx512bw"), optimize("fp-contract=off")))
-#endif
-XP_WARP_AVX512_TARGET void WarpPixelRangeAVX512(const uint16_t* moving, int columns, int rows, const InverseMotion& m,
+XP_EXACT_AVX512 void WarpPixelRangeAVX512(const uint16_t* moving, int columns, int rows, const InverseMotion& m,
   const PixelIndex* pixels, size_t k0, size_t k1, uint16_t* out, uint8_t* valid)
 {
   const __m512d cx = _mm512_set1_pd(m.center[0]), cy = _mm512_set1_pd(m.center[1]);

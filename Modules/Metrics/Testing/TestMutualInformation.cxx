@@ -112,6 +112,46 @@ TEST(MutualInformation, MaskedPixelsHaveNoEffect)
   EXPECT_NEAR(masked.MutualInformation(), before, 1e-12);
 }
 
+TEST(MutualInformation, ListedPixelsCountAsTheirMask)
+{
+  // The same counts and MI from a mask's pixels listed as from the mask, values above the top
+  // included (they fall in the last bin either way); garbage at unlisted pixels changes nothing.
+  std::vector<uint16_t> fixed = Structured(120, 4), moving = Structured(120, 5);
+  fixed[7] = moving[9] = 65535;
+  std::vector<uint8_t> mask(fixed.size());
+  std::vector<int> listed;
+  for (size_t i = 0; i < fixed.size(); ++i)
+  {
+    mask[i] = (i % 7) != 3 && (i / 120) % 5 != 2;
+    if (mask[i])
+      listed.push_back(static_cast<int>(i));
+  }
+  xp::JointHistogram byMask(32), byList(32);
+  byMask.Compute(fixed.data(), moving.data(), static_cast<long long>(fixed.size()), mask.data(), mask.data());
+  byList.Compute(fixed.data(), moving.data(), listed);
+  EXPECT_EQ(byList.Counts(), byMask.Counts());
+  EXPECT_EQ(byList.Samples(), byMask.Samples());
+  EXPECT_EQ(byList.MutualInformation(), byMask.MutualInformation());
+  for (size_t i = 0; i < fixed.size(); ++i)
+    if (!mask[i])
+      moving[i] = 4000;
+  byList.Compute(fixed.data(), moving.data(), listed);
+  EXPECT_EQ(byList.Counts(), byMask.Counts());
+}
+
+TEST(MutualInformation, EntropyOfLargeAndSmallCountsIsTheirSum)
+{
+  // Counts on both sides of the c ln c table's end (4096): one image of two values, split
+  // 5000 : 3000, has the entropy of those proportions, to the last bits of a double.
+  std::vector<uint16_t> image(8000, 100);
+  std::fill(image.begin() + 5000, image.end(), 3000);
+  xp::JointHistogram h(32);
+  h.Compute(image.data(), image.data(), static_cast<long long>(image.size()));
+  const double p = 5000.0 / 8000.0, q = 3000.0 / 8000.0;
+  EXPECT_NEAR(h.FixedEntropy(), -(p * std::log(p) + q * std::log(q)), 1e-12);
+  EXPECT_NEAR(h.JointEntropy(), h.FixedEntropy(), 1e-12);
+}
+
 TEST(vtkXPMutualInformationMetric, MatchesTheKernelAndChecksSizes)
 {
   const std::vector<uint16_t> a = Structured(64, 6), b = Structured(64, 7);
