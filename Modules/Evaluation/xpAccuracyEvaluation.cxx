@@ -37,6 +37,32 @@ void WriteTrialXRays(const std::vector<RegistrationView>& views, int trial, cons
 
 } // namespace
 
+namespace
+{
+
+/** TrialRecord's evaluations by what they served, from the trace's stages: each named as its
+ *  scheduled stage (the second end's refinement after it), the gate's own checks by theirs. */
+void CountStageEvaluations(const StereoRegistrationResult& result, TrialRecord& r)
+{
+  const std::string secondEnd = " from the second search's end";
+  for (const RegistrationStage& traced : result.stages)
+  {
+    const auto scheduled = std::find_if(result.schedule.stages.begin(), result.schedule.stages.end(),
+      [&](const ScheduledStage& stage) { return stage.name == traced.name; });
+    const bool second = traced.name.size() > secondEnd.size() &&
+      traced.name.compare(traced.name.size() - secondEnd.size(), secondEnd.size(), secondEnd) == 0;
+    const StageKind kind = scheduled != result.schedule.stages.end() ? scheduled->kind : StageKind::Gate;
+    int& count = second                            ? r.secondEndEvaluations
+      : kind == StageKind::Search                 ? r.searchEvaluations
+      : kind == StageKind::Refinement             ? r.refinementEvaluations
+      : kind == StageKind::Polish || kind == StageKind::Restarts ? r.polishEvaluations
+                                                  : r.gateEvaluations;
+    count += traced.evaluations;
+  }
+}
+
+} // namespace
+
 TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::string& scenario, const Pose& truth,
   const StereoRegistrationResult& result, const std::vector<Eigen::Vector3d>& targets,
   const Eigen::Vector3d& roomIsocenter, double successMTRE, double seconds)
@@ -60,6 +86,7 @@ TrialRecord MakeTrialRecord(int trial, const std::string& approach, const std::s
   r.totalSeconds = seconds;
   r.drrCount = result.drrCount;
   r.evaluations = result.evaluations;
+  CountStageEvaluations(result, r);
   if (!result.explained.empty())
   {
     r.explained = *std::min_element(result.explained.begin(), result.explained.end());

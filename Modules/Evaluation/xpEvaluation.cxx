@@ -117,7 +117,8 @@ std::string TrialCSVHeader()
   header += ",initial_translation_mm,initial_mtre_mm,status";
   for (const char* axis : AxisNames)
     header += std::string(",error_") + axis;
-  return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,explained,residual_mm,uncovered,"
+  return header + ",mtre_mm,success,prealign_s,mask_s,fine_s,total_s,drr_count,evaluations,search_evaluations,"
+                  "refinement_evaluations,second_end_evaluations,polish_evaluations,gate_evaluations,explained,residual_mm,uncovered,"
                   "search_apart_mm,search_apart_deg,valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,peak_margin,"
                   "uncertainty_mm,uncertainty_deg,halves_apart_mm,peak_leads,edge_mm,edge_moved_mm,xray_rank_noise,table,reasons";
 }
@@ -136,7 +137,9 @@ std::string TrialCSVRow(const TrialRecord& r)
   std::replace(reasons.begin(), reasons.end(), ',', ' ');
   std::replace(reasons.begin(), reasons.end(), '\n', ' ');
   row << ',' << r.mtre << ',' << (r.success ? 1 : 0) << ',' << r.prealignSeconds << ',' << r.maskSeconds << ','
-      << r.fineSeconds << ',' << r.totalSeconds << ',' << r.drrCount << ',' << r.evaluations << ',' << r.explained << ','
+      << r.fineSeconds << ',' << r.totalSeconds << ',' << r.drrCount << ',' << r.evaluations << ',' << r.searchEvaluations << ','
+      << r.refinementEvaluations << ',' << r.secondEndEvaluations << ',' << r.polishEvaluations << ','
+      << r.gateEvaluations << ',' << r.explained << ','
       << r.residualMM << ',' << r.uncovered << ',' << r.searchApartMM << ',' << r.searchApartDegrees << ','
       << r.validPixels << ',' << r.endFaceExcessMin << ',' << r.endFaceExcessMax << ',' << r.endFacesLeftOut << ','
       << r.peakMargin << ',' << r.uncertaintyMM << ',' << r.uncertaintyDegrees << ',' << r.halvesApartMM << ',';
@@ -206,6 +209,9 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       r.totalSeconds = std::stod(f[i++]);
       r.drrCount = std::stoll(f[i++]);
       r.evaluations = std::stoi(f[i++]);
+      for (int* v : { &r.searchEvaluations, &r.refinementEvaluations, &r.secondEndEvaluations, &r.polishEvaluations,
+             &r.gateEvaluations })
+        *v = std::stoi(f[i++]);
       for (double* v : { &r.explained, &r.residualMM, &r.uncovered, &r.searchApartMM, &r.searchApartDegrees })
         *v = std::stod(f[i++]);
       r.validPixels = std::stoll(f[i++]);

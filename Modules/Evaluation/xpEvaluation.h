@@ -31,6 +31,10 @@ struct TrialRecord
   double prealignSeconds = 0.0, maskSeconds = 0.0, fineSeconds = 0.0, totalSeconds = 0.0;
   long long drrCount = 0;
   int evaluations = 0;
+  /** `evaluations` by what they served (result.json `convergence.stages`): the searches at every
+   *  size, the refinement of the better search end, the refinement of the second end (where both
+   *  were refined), the polish, and the gate's own (the landscape, the held-out check, the result). */
+  int searchEvaluations = 0, refinementEvaluations = 0, secondEndEvaluations = 0, polishEvaluations = 0, gateEvaluations = 0;
   /** The gate's measures (worst view), to calibrate it: MI / H(X-ray), 2D residual (mm),
    *  uncovered fraction, and how far apart the two searches ended (mm, degrees). */
   double explained = 0.0, residualMM = 0.0, uncovered = 0.0, searchApartMM = 0.0, searchApartDegrees = 0.0;

@@ -898,6 +898,10 @@ TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
   { return static_cast<int>(std::count(header.begin(), header.begin() + header.find("," + name + ","), ',')) + 1; };
   ASSERT_NE(header.find(",valid_pixels,end_face_excess_min,end_face_excess_max,end_faces_left_out,"), std::string::npos);
   const int validColumn = columnOf("valid_pixels"), leftOutColumn = columnOf("end_faces_left_out");
+  // Each trial's evaluations, and the same by what they served: they add up.
+  const int evaluationsColumn = columnOf("evaluations"), searchColumn = columnOf("search_evaluations");
+  ASSERT_NE(header.find(",evaluations,search_evaluations,refinement_evaluations,second_end_evaluations,polish_evaluations,"
+                        "gate_evaluations,"), std::string::npos) << header;
   int rows = 0;
   while (std::getline(csv, line))
   {
@@ -912,6 +916,12 @@ TEST(Commands, SmallSeededEvaluationWritesConsistentFilesAndResumes)
     EXPECT_TRUE(f[1] == "A" || f[1] == "B");
     EXPECT_EQ(f[2], "objects");
     EXPECT_GT(std::stoll(f[validColumn]), 2048) << "the phantom's views keep thousands of pixels";
+    int served = 0;
+    for (int c = searchColumn; c < searchColumn + 5; ++c)
+      served += std::stoi(f[c]);
+    EXPECT_EQ(served, std::stoi(f[evaluationsColumn])) << line;
+    EXPECT_GT(std::stoi(f[searchColumn]), 0) << "every registration searches";
+    EXPECT_GT(std::stoi(f[searchColumn + 1]), 0) << "and refines";
     const int leftOut = std::stoi(f[leftOutColumn]);
     EXPECT_TRUE(leftOut >= 0 && leftOut <= 4) << "two faces of two views";
     const double initial = std::stod(f[9]), mtre = std::stod(f[18]);

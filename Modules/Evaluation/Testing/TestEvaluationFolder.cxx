@@ -63,7 +63,7 @@ TEST(EvaluationFolder, ResumesWithTheSameSettingsAndRefusesOthers)
   EXPECT_EQ(Text("eval-folder/evaluation.json"), "{ \"seed\": 1 }\n"); // not overwritten by the refused run
 }
 
-TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadAndEdgeFigure)
+TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadEdgeFigureAndStageCount)
 {
   xp::TrialRecord written = Row(1, "B");
   for (int k = 0; k < 12; ++k)
@@ -72,6 +72,8 @@ TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadAndEdgeFigure)
   written.edgeMovedMM = { 1.75, -1.0 };
   written.xrayRankNoise = { 38.5, 81.25 };
   written.table = "body_only";
+  written.searchEvaluations = 108, written.refinementEvaluations = 67, written.secondEndEvaluations = 5;
+  written.polishEvaluations = 13, written.gateEvaluations = 14;
   ASSERT_EQ(std::system("rm -rf eval-leads && mkdir eval-leads"), 0);
   std::ofstream("eval-leads/trials.csv") << xp::TrialCSVHeader() << '\n' << xp::TrialCSVRow(written) << '\n';
   const std::vector<xp::TrialRecord> read = xp::ReadTrialCSV("eval-leads/trials.csv");
@@ -81,6 +83,11 @@ TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadAndEdgeFigure)
   EXPECT_EQ(read[0].edgeMovedMM, written.edgeMovedMM);
   EXPECT_EQ(read[0].xrayRankNoise, written.xrayRankNoise);
   EXPECT_EQ(read[0].table, "body_only");
+  EXPECT_EQ(read[0].searchEvaluations, 108);
+  EXPECT_EQ(read[0].refinementEvaluations, 67);
+  EXPECT_EQ(read[0].secondEndEvaluations, 5);
+  EXPECT_EQ(read[0].polishEvaluations, 13);
+  EXPECT_EQ(read[0].gateEvaluations, 14);
   EXPECT_EQ(read[0].reasons, written.reasons);
 }
 
