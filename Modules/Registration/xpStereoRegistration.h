@@ -195,14 +195,18 @@ struct StereoRegistrationSettings
   /** gate: a second coarse search starts from the pre-alignment moved 1.5 mm and 1.5 degrees
    *  along the roll/lateral valley. When it ends farther than these (mm, degrees) from the first
    *  one's end, about as well, both ends are refined at full resolution, and the result fails if
-   *  they are still that far apart. 0 mm = no second search. */
+   *  the refined ends are farther apart than maxSearchDisagreementMM or maxRefinedApartDegrees.
+   *  The same distances stop the second search and the second end's refinement where they meet
+   *  the first's. 0 mm = no second search. The 0.5 degrees are the refined ends' own limit: ends
+   *  nearer than that can never fail the result as apart, and refining both of them cost up to
+   *  120 full-size evaluations (Algorithms.md, "Both ends refined only beyond the result's
+   *  tolerance"). */
   double maxSearchDisagreementMM = 0.5;
-  double maxSearchDisagreementDegrees = 0.2;
+  double maxSearchDisagreementDegrees = 0.5;
   /** gate: refined ends farther apart than maxSearchDisagreementMM or this (degrees), about as
-   *  well, fail the result. Not the 0.2 degrees that decide whether both coarse ends are refined:
-   *  two refinements of one optimum ended 0.20-0.21 degrees apart (0.09-0.27 mm) on the
-   *  matrix's noisiest pelvis cells; 0.5 degrees is the rotational tolerance the result is
-   *  asked to keep (Algorithms.md). */
+   *  well, fail the result: 0.5 degrees is the rotational tolerance the result is asked to keep
+   *  (two refinements of one optimum ended 0.20-0.21 degrees apart on the matrix's noisiest
+   *  pelvis cells; Algorithms.md). */
   double maxRefinedApartDegrees = 0.5;
   /** Coarse ends apart are both refined when the worse one reaches this fraction of the better
    *  one's objective; a clearly worse end is a local optimum the better search left behind. */
