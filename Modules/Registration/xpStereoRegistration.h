@@ -199,8 +199,7 @@ struct StereoRegistrationSettings
    *  The same distances stop the second search and the second end's refinement where they meet
    *  the first's. 0 mm = no second search. The 0.5 degrees are the refined ends' own limit: ends
    *  nearer than that can never fail the result as apart, and refining both of them cost up to
-   *  120 full-size evaluations (Algorithms.md, "Both ends refined only beyond the result's
-   *  tolerance"). */
+   *  157 full-size evaluations (Algorithms.md, "Where the evaluations go"). */
   double maxSearchDisagreementMM = 0.5;
   double maxSearchDisagreementDegrees = 0.5;
   /** gate: refined ends farther apart than maxSearchDisagreementMM or this (degrees), about as
