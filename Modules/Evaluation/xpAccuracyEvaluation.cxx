@@ -35,11 +35,6 @@ void WriteTrialXRays(const std::vector<RegistrationView>& views, int trial, cons
       (directory / ("trial_" + std::to_string(trial) + "_" + item.view.name + ".png")).string());
 }
 
-} // namespace
-
-namespace
-{
-
 /** TrialRecord's evaluations by what they served, from the trace's stages: each named as its
  *  scheduled stage (the second end's refinement after it), the gate's own checks by theirs. */
 void CountStageEvaluations(const StereoRegistrationResult& result, TrialRecord& r)
