@@ -35,23 +35,16 @@ void WriteTrialXRays(const std::vector<RegistrationView>& views, int trial, cons
       (directory / ("trial_" + std::to_string(trial) + "_" + item.view.name + ".png")).string());
 }
 
-/** TrialRecord's evaluations by what they served, from the trace's stages: each named as its
- *  scheduled stage (the second end's refinement after it), the gate's own checks by theirs. */
+/** TrialRecord's evaluations by what they served, as the trace's stages record it. */
 void CountStageEvaluations(const StereoRegistrationResult& result, TrialRecord& r)
 {
-  const std::string secondEnd = " from the second search's end";
   for (const RegistrationStage& traced : result.stages)
   {
-    const auto scheduled = std::find_if(result.schedule.stages.begin(), result.schedule.stages.end(),
-      [&](const ScheduledStage& stage) { return stage.name == traced.name; });
-    const bool second = traced.name.size() > secondEnd.size() &&
-      traced.name.compare(traced.name.size() - secondEnd.size(), secondEnd.size(), secondEnd) == 0;
-    const StageKind kind = scheduled != result.schedule.stages.end() ? scheduled->kind : StageKind::Gate;
-    int& count = second                            ? r.secondEndEvaluations
-      : kind == StageKind::Search                 ? r.searchEvaluations
-      : kind == StageKind::Refinement             ? r.refinementEvaluations
-      : kind == StageKind::Polish || kind == StageKind::Restarts ? r.polishEvaluations
-                                                  : r.gateEvaluations;
+    int& count = traced.secondEnd                    ? r.secondEndEvaluations
+      : traced.kind == StageKind::Search            ? r.searchEvaluations
+      : traced.kind == StageKind::Refinement        ? r.refinementEvaluations
+      : traced.kind == StageKind::Polish || traced.kind == StageKind::Restarts ? r.polishEvaluations
+                                                    : r.gateEvaluations;
     count += traced.evaluations;
   }
 }

@@ -119,6 +119,9 @@ Json::Value ConvergenceValue(const RegistrationRecord& r)
     if (stage.modelEvaluations > 0)
       item["model_evaluations"] = stage.modelEvaluations;
     item["image_divisor"] = stage.imageDivisor;
+    item["kind"] = StageKindName(stage.kind);
+    if (stage.secondEnd)
+      item["second_end"] = true;
     item["seconds"] = stage.seconds;
     stages.append(item);
   }
@@ -372,6 +375,14 @@ void ReadConvergence(const Fields& f, RegistrationRecord& r)
     read.evaluations = stage["evaluations"].isInt() ? stage["evaluations"].asInt() : 0; // absent before the schedule
     read.imageDivisor = stage["image_divisor"].isInt() ? stage["image_divisor"].asInt() : 0;
     read.modelEvaluations = stage["model_evaluations"].isInt() ? stage["model_evaluations"].asInt() : 0;
+    if (stage.isMember("kind")) // absent before the stages recorded it
+    {
+      const std::optional<StageKind> kind = stage["kind"].isString() ? StageKindNamed(stage["kind"].asString()) : std::nullopt;
+      if (!kind)
+        f.Fail("convergence.stages", "kind must be a stage kind (pre-alignment, masks, search, refinement, polish, restarts, landscape, gate)");
+      read.kind = *kind;
+    }
+    read.secondEnd = stage["second_end"].isBool() && stage["second_end"].asBool();
     r.stages.push_back(read);
   }
   r.objectiveTrace = f.Numbers("convergence.objective");
@@ -383,12 +394,11 @@ void ReadSchedule(const Fields& f, RegistrationRecord& r)
   for (const Json::Value& item : f.Array("schedule"))
   {
     ScheduledStage stage;
-    bool known = false;
-    for (StageKind kind : { StageKind::PreAlignment, StageKind::Masks, StageKind::Search, StageKind::Refinement,
-           StageKind::Polish, StageKind::Restarts, StageKind::Landscape, StageKind::Gate })
-      if (item.isObject() && item["kind"].isString() && item["kind"].asString() == StageKindName(kind))
-        stage.kind = kind, known = true;
-    if (!known || !item["name"].isString() || !item["image_divisor"].isInt())
+    const std::optional<StageKind> kind =
+      item.isObject() && item["kind"].isString() ? StageKindNamed(item["kind"].asString()) : std::nullopt;
+    if (kind)
+      stage.kind = *kind;
+    if (!kind || !item["name"].isString() || !item["image_divisor"].isInt())
       f.Fail("schedule", "must list {kind (a stage kind), name, image_divisor, ...}");
     stage.name = item["name"].asString();
     stage.imageDivisor = item["image_divisor"].asInt();

@@ -25,6 +25,15 @@ const char* StageKindName(StageKind kind)
   return "?";
 }
 
+std::optional<StageKind> StageKindNamed(const std::string& name)
+{
+  for (StageKind kind : { StageKind::PreAlignment, StageKind::Masks, StageKind::Search, StageKind::Refinement,
+         StageKind::Polish, StageKind::Restarts, StageKind::Landscape, StageKind::Gate })
+    if (name == StageKindName(kind))
+      return kind;
+  return std::nullopt;
+}
+
 ScheduleChoice ParseScheduleChoice(const std::string& name, const std::string& field)
 {
   if (name == "standard")

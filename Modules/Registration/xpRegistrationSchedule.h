@@ -10,6 +10,7 @@
 
 #include "xpPoseOptimizer.h"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,8 @@ enum class StageKind
 
 /** "pre-alignment", "masks", "search", "refinement", "polish", "restarts", "landscape", "gate". */
 VTKXPREGISTRATION_EXPORT const char* StageKindName(StageKind kind);
+/** The kind StageKindName names `name`; none for any other name. */
+VTKXPREGISTRATION_EXPORT std::optional<StageKind> StageKindNamed(const std::string& name);
 
 /** One stage of a registration's schedule: what it does, on which images, within which budget. */
 struct ScheduledStage

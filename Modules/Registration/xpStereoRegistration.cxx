@@ -87,7 +87,7 @@ class StageTrace
 public:
   explicit StageTrace(const SimilarityCost& sink) : Sink(sink) {}
 
-  void Begin(const std::string& name, int imageDivisor)
+  void Begin(const std::string& name, int imageDivisor, StageKind kind, bool secondEnd = false)
   {
     this->End();
     this->Time = Clock::now();
@@ -97,6 +97,8 @@ public:
     stage.name = name;
     stage.firstEvaluation = static_cast<int>(this->Objective.size());
     stage.imageDivisor = imageDivisor;
+    stage.kind = kind;
+    stage.secondEnd = secondEnd;
     this->Stages.push_back(stage);
     this->Open = true;
   }
@@ -1149,7 +1151,7 @@ private:
    *  travel would only polish the same optimum. */
   PoseOptimizerResult Search(const ScheduledStage& stage, const Pose& from, const PoseOptimizerResult* firstEnd)
   {
-    this->Trace.Begin(stage.name, stage.imageDivisor);
+    this->Trace.Begin(stage.name, stage.imageDivisor, stage.kind);
     PoseOptimizerSettings optimizer = stage.optimizer;
     const StereoRegistrationSettings& settings = this->Settings;
     if (firstEnd)
@@ -1194,7 +1196,7 @@ private:
     for (size_t e = 0; e < ends.size(); ++e)
     {
       const std::string name = e == 0 ? stage.name : stage.name + " from the second search's end";
-      this->Trace.Begin(name, stage.imageDivisor);
+      this->Trace.Begin(name, stage.imageDivisor, stage.kind, e > 0);
       if (e > 0)
         this->Progress.Begin(name, stage.progressTo, stage.progressTo + 0.5 * (stage.progressTo - stage.progressFrom));
       // The second end's refinement stops at the first pose that agrees with the first end's,
@@ -1293,7 +1295,7 @@ private:
    *  shape, round after round until one moves less than the refinement's stop (PolishToVertex). */
   PoseOptimizerResult Polish(const ScheduledStage& stage, PoseOptimizerResult end)
   {
-    this->Trace.Begin(stage.name, stage.imageDivisor);
+    this->Trace.Begin(stage.name, stage.imageDivisor, stage.kind);
     const VertexPolish polish = PolishToVertex(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value,
       this->Settings.landscapeNearMM, this->Settings.landscapeNearDegrees, stage.rounds, stage.optimizer.toleranceMM,
       stage.optimizer.toleranceDegrees);
@@ -1309,7 +1311,7 @@ private:
    *  changing from start to start (rotations about the bone's centre): they must all come back. */
   Restarts Restart(const ScheduledStage& stage, const PoseOptimizerResult& end)
   {
-    this->Trace.Begin(stage.name, stage.imageDivisor);
+    this->Trace.Begin(stage.name, stage.imageDivisor, stage.kind);
     const auto objective = this->Traced(*this->Fine);
     Restarts restarts;
     for (int k = 0; k < stage.rounds; ++k)
@@ -1331,7 +1333,7 @@ private:
   void MeasureAround(const ScheduledStage& stage, const PoseOptimizerResult& end)
   {
     const StereoRegistrationSettings& settings = this->Settings;
-    this->Trace.Begin(stage.name, stage.imageDivisor);
+    this->Trace.Begin(stage.name, stage.imageDivisor, stage.kind);
     // The ROI and the CT's coverage, without the entropy mask: pixels the optimiser never saw,
     // but none that no pose of this CT can explain.
     const Eigen::Isometry3d resultCTToRoom = this->CTToRoom(end.pose);
@@ -1365,7 +1367,7 @@ private:
     this->Result.uncertainty = this->PolishProbes
       ? UncertaintyFromProbes(*this->PolishProbes, end.value)
       : MeasureUncertainty(this->Traced(*this->Fine, &this->Result.evaluations), end.pose, end.value, settings);
-    this->Trace.Begin("held-out check", heldOutDivisor);
+    this->Trace.Begin("held-out check", heldOutDivisor, StageKind::Landscape);
     const PeakLeads leads = MeasurePeakLeads(this->Traced(*heldOut, &this->Result.evaluations), end.pose, settings);
     this->Result.peakMargin = leads.margin;
     this->Result.peakLeads = leads.leads;
@@ -1374,7 +1376,7 @@ private:
     // thick body lets little through, and its steps would be edges.
     for (size_t v = 0; v < wholeViews.size(); ++v)
       wholeViews[v].xray = this->UnsmoothedViews[v].xray;
-    this->Trace.Begin("at the result", 1);
+    this->Trace.Begin("at the result", 1, StageKind::Landscape);
     const std::unique_ptr<StereoSimilarity> atFullSize = this->Similarity(this->Volume, wholeViews, { true, 0.0 });
     // Its DRRs are the shadow's line integrals on its pixels (the same rays, every one cast):
     // measured, not rendered again.

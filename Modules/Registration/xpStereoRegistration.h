@@ -257,6 +257,12 @@ struct RegistrationStage
    *  trace nor in `evaluations`). */
   int modelEvaluations = 0;
   int imageDivisor = 1;  ///< its images' size: the registration's divided by this per side
+  /** The scheduled stage it traces (the landscape's held-out check and its evaluation at the
+   *  result are the landscape's); what the trace's evaluations served, by kind. */
+  StageKind kind = StageKind::Gate;
+  /** A refinement of the second search's end (where both ends are refined): the robustness
+   *  check's share of the refinement. */
+  bool secondEnd = false;
 };
 
 /**

@@ -32,18 +32,19 @@ def load(name):
     for stage in r.get("convergence", {}).get("stages", []):
         stage.pop("seconds", None)
     return r
-def known(new, old):
-    """new without the fields old lacks (what the newer build adds), at every depth."""
-    if isinstance(new, dict) and isinstance(old, dict):
-        return {k: known(v, old[k]) for k, v in new.items() if k in old}
-    if isinstance(new, list) and isinstance(old, list) and len(new) == len(old):
-        return [known(n, o) for n, o in zip(new, old)]
-    return new
 added = set()
+def known(new, old, path=""):
+    """new without the fields old lacks (what the newer build adds, noted in `added` by their
+    path, a list's items as []), at every depth."""
+    if isinstance(new, dict) and isinstance(old, dict):
+        added.update(path + k for k in new if k not in old)
+        return {k: known(v, old[k], path + k + ".") for k, v in new.items() if k in old}
+    if isinstance(new, list) and isinstance(old, list) and len(new) == len(old):
+        return [known(n, o, path.rstrip(".") + "[].") for n, o in zip(new, old)]
+    return new
 same = True
 for i in range(1, runs + 1):
     old, new = load(f"old-{i}"), load(f"new-{i}")
-    added |= set(new) - set(old)
     same &= known(new, old) == old
 print("results identical (result.json without timings" + (", fields only the new build writes: " + ", ".join(sorted(added)) if added else "") + "):",
       "yes" if same else "NO")

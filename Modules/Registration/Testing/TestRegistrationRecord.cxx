@@ -43,6 +43,9 @@ xp::RegistrationRecord FailedRecord()
   result.stages[1].modelEvaluations = 420;
   result.stages[1].imageDivisor = 1;
   result.stages[0].imageDivisor = 2;
+  result.stages[0].kind = xp::StageKind::Search;
+  result.stages[1].kind = xp::StageKind::Refinement;
+  result.stages[1].secondEnd = true;
   xp::StereoRegistrationSettings linearized;
   linearized.linearizedRefinement = true;
   result.schedule = xp::MakeSchedule(linearized, true, true, false);
@@ -134,6 +137,10 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_EQ(read.stages[1].evaluations, 150);
   EXPECT_EQ(read.stages[1].modelEvaluations, 420);
   EXPECT_EQ(read.stages[0].modelEvaluations, 0) << "a search renders every evaluation";
+  EXPECT_EQ(read.stages[0].kind, xp::StageKind::Search);
+  EXPECT_EQ(read.stages[1].kind, xp::StageKind::Refinement);
+  EXPECT_FALSE(read.stages[0].secondEnd);
+  EXPECT_TRUE(read.stages[1].secondEnd);
   EXPECT_EQ(read.stages[0].imageDivisor, 2);
   EXPECT_EQ(read.prealignIterations, 3);
   EXPECT_EQ(read.prealignDRRs, 40);

@@ -1078,6 +1078,19 @@ TEST(RegistrationSchedule, ListsTheMethodsStagesInOrder)
   EXPECT_NE(xp::DescribeSchedule(body).find("refinement"), std::string::npos);
 }
 
+TEST(RegistrationSchedule, StageKindsReadBackByTheirNames)
+{
+  for (xp::StageKind kind : { xp::StageKind::PreAlignment, xp::StageKind::Masks, xp::StageKind::Search, xp::StageKind::Refinement,
+         xp::StageKind::Polish, xp::StageKind::Restarts, xp::StageKind::Landscape, xp::StageKind::Gate })
+  {
+    const std::optional<xp::StageKind> read = xp::StageKindNamed(xp::StageKindName(kind));
+    ASSERT_TRUE(read.has_value()) << xp::StageKindName(kind);
+    EXPECT_EQ(*read, kind);
+  }
+  EXPECT_FALSE(xp::StageKindNamed("fine").has_value()) << "a stage's name is not its kind";
+  EXPECT_FALSE(xp::StageKindNamed("").has_value());
+}
+
 TEST(RegistrationSchedule, TheEconomyTravelsAtQuarterSizeAndStopsLooser)
 {
   xp::StereoRegistrationSettings settings;
@@ -1164,6 +1177,22 @@ TEST(RegistrationSchedule, TheEconomyScheduleFindsThePoseCastingFewerRays)
   for (const xp::RegistrationStage& stage : fewer.stages)
     quarter |= stage.name == "second coarse search (quarter resolution)" && stage.imageDivisor == 4;
   EXPECT_TRUE(quarter);
+  // Each traced stage records the kind of the scheduled stage it runs (the landscape's held-out
+  // check and its evaluation at the result the landscape's), and a second end's refinement says so.
+  for (const xp::StereoRegistrationResult* r : { &fewer, &standard })
+    for (const xp::RegistrationStage& stage : r->stages)
+    {
+      const std::string second = " from the second search's end";
+      const bool secondEnd = stage.name.size() > second.size() && stage.name.compare(stage.name.size() - second.size(), second.size(), second) == 0;
+      const std::string scheduledName = secondEnd ? stage.name.substr(0, stage.name.size() - second.size()) : stage.name;
+      const auto scheduled = std::find_if(r->schedule.stages.begin(), r->schedule.stages.end(),
+        [&](const xp::ScheduledStage& s) { return s.name == scheduledName; });
+      const xp::StageKind expected = scheduled != r->schedule.stages.end() ? scheduled->kind : xp::StageKind::Landscape;
+      EXPECT_EQ(xp::StageKindName(stage.kind), std::string(xp::StageKindName(expected))) << stage.name;
+      EXPECT_EQ(stage.secondEnd, secondEnd) << stage.name;
+      if (scheduled == r->schedule.stages.end())
+        EXPECT_TRUE(stage.name == "held-out check" || stage.name == "at the result") << stage.name;
+    }
 }
 
 namespace
