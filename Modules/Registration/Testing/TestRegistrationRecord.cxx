@@ -377,6 +377,44 @@ TEST(RegistrationRecord, PlaneStepsReadBackAndEarlierRecordsSampledEveryPlane)
   }
 }
 
+TEST(RegistrationRecord, AStagesKindIsOneOfTheScheduleKindsOrAbsent)
+{
+  const std::string current = xp::RegistrationRecordJSON(FailedRecord());
+  const auto withStage = [&](const Json::Value* kind)
+  {
+    Json::Value root;
+    std::istringstream(current) >> root;
+    Json::Value stage(Json::objectValue);
+    stage["name"] = "fine";
+    stage["first_evaluation"] = 0;
+    stage["evaluations"] = 3;
+    stage["seconds"] = 0.5;
+    if (kind)
+      stage["kind"] = *kind;
+    root["convergence"]["stages"].append(stage);
+    return Json::writeString(Json::StreamWriterBuilder(), root);
+  };
+  const Json::Value refinement("refinement");
+  const xp::RegistrationRecord read = xp::ParseRegistrationRecord(withStage(&refinement), "run/result.json");
+  ASSERT_FALSE(read.stages.empty());
+  EXPECT_EQ(read.stages.back().kind, xp::StageKind::Refinement);
+  EXPECT_EQ(read.stages.back().evaluations, 3);
+  EXPECT_NO_THROW(xp::ParseRegistrationRecord(withStage(nullptr), "old/result.json")) << "records before the stages' kinds";
+  for (const Json::Value& bad : { Json::Value("fine"), Json::Value(2), Json::Value(Json::nullValue) })
+  {
+    try
+    {
+      xp::ParseRegistrationRecord(withStage(&bad), "run/result.json");
+      ADD_FAILURE() << "a stage of kind " << bad.toStyledString() << " was accepted";
+    }
+    catch (const xp::InputError& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("convergence.stages"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("run/result.json"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(RegistrationRecord, ADamagedRecordNamesTheFileAndTheField)
 {
   const std::string good = xp::RegistrationRecordJSON(FailedRecord());
