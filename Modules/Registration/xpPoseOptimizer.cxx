@@ -103,6 +103,19 @@ ParameterSearchResult MaximizeParameters(
   {
     double value = 0.0;
     const nlopt::result code = optimizer.optimize(x, value);
+    if (context.reachedTarget)
+    {
+      // NLopt's C++ interface catches forced_stop inside the objective, hands the algorithm
+      // HUGE_VAL and asks it to stop; BOBYQA (NLopt 2.7.1) may then end with its own code
+      // (XTOL_REACHED) and an infinite optimum instead of FORCED_STOP.
+      x = context.target;
+      result.value = context.targetValue;
+      result.converged = true;
+      result.reachedTarget = true;
+      result.stopReason = "target reached";
+      result.evaluations = context.evaluations;
+      return result;
+    }
     result.value = value;
     // BOBYQA ends its trust region's shrinking with the generic SUCCESS, not XTOL_REACHED.
     result.converged = code == nlopt::XTOL_REACHED || code == nlopt::FTOL_REACHED || code == nlopt::SUCCESS;

@@ -388,6 +388,58 @@ TEST(PoseOptimizer, StopsAtTheTargetWithThePoseThatReachedIt)
   EXPECT_LT(early.evaluations, full.evaluations);
 }
 
+// A target that first holds at the k-th evaluation ends every method's search there, whatever
+// the method was doing: the pose and value of that evaluation, k evaluations, target reached.
+// NLopt's C++ interface hands the algorithm HUGE_VAL where the objective stops it, and BOBYQA
+// (NLopt 2.7.1) may then end with XTOL_REACHED and an infinite optimum instead of FORCED_STOP
+// (the second search's stop at the first one's end went unseen at its 14th evaluation).
+TEST(PoseOptimizer, ATargetReachedAtAnyEvaluationEndsEveryMethodThere)
+{
+  const auto objective = [](const std::vector<double>& x)
+  {
+    double sum = 0.0;
+    for (size_t i = 0; i < x.size(); ++i)
+      sum += (1.0 + static_cast<double>(i)) * std::pow(x[i] - 0.5 * static_cast<double>(i), 2);
+    return -sum;
+  };
+  for (const xp::PoseOptimizerMethod method : { xp::PoseOptimizerMethod::NelderMead, xp::PoseOptimizerMethod::Subplex,
+         xp::PoseOptimizerMethod::BOBYQA, xp::PoseOptimizerMethod::COBYLA })
+  {
+    xp::ParameterSearch search;
+    search.method = method;
+    search.lower.assign(6, -20.0);
+    search.upper.assign(6, 20.0);
+    search.step.assign(6, 2.0);
+    search.tolerance.assign(6, 1e-3);
+    search.maxEvaluations = 1000;
+    std::vector<double> free(6, 3.0);
+    const int evaluations = xp::MaximizeParameters(objective, free, search).evaluations;
+    ASSERT_GT(evaluations, 20) << xp::PoseOptimizerMethodName(method);
+    for (int k = 1; k <= evaluations; ++k)
+    {
+      int asked = 0;
+      std::vector<double> atTarget;
+      double targetValue = 0.0;
+      search.stopWhen = [&](const std::vector<double>& x, double value)
+      {
+        if (++asked != k)
+          return false;
+        atTarget = x;
+        targetValue = value;
+        return true;
+      };
+      std::vector<double> x(6, 3.0);
+      const xp::ParameterSearchResult found = xp::MaximizeParameters(objective, x, search);
+      const std::string where = std::string(xp::PoseOptimizerMethodName(method)) + ", target at evaluation " + std::to_string(k);
+      ASSERT_TRUE(found.reachedTarget) << where << ": " << found.stopReason;
+      EXPECT_TRUE(found.converged) << where;
+      EXPECT_EQ(found.evaluations, k) << where;
+      EXPECT_EQ(found.value, targetValue) << where;
+      EXPECT_EQ(x, atTarget) << where;
+    }
+  }
+}
+
 // The optimiser component on its own, as the pre-alignment's 2D registrations use it: a peak in
 // three parameters of different scales found within their tolerances, each parameter in its
 // place; the box respected where the peak lies outside it; a parameter without its bound, step
