@@ -62,6 +62,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"search_render_stride\": " << o.settings.searchRenderStride
        << ",\n  \"quarter_size_travel\": " << (o.settings.quarterSizeTravel ? "true" : "false")
        << ",\n  \"schedule\": \"" << ScheduleChoiceName(o.settings.schedule) << "\""
+       << ",\n  \"second_search_joins\": " << (o.settings.secondSearchJoins ? "true" : "false")
        << ",\n  \"vertex_polish_rounds\": " << o.settings.vertexPolishRounds
        << ",\n  \"half_size_refinement\": " << (o.settings.halfSizeRefinement ? "true" : "false")
        << ",\n  \"linearized_refinement\": " << (o.settings.linearizedRefinement ? "true" : "false")

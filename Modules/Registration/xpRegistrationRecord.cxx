@@ -143,6 +143,8 @@ Json::Value ScheduleValue(const RegistrationSchedule& s)
       item["track"] = stage.track;
     if (stage.kind == StageKind::Search || stage.kind == StageKind::Refinement)
       item["stops_at_first_track_end"] = stage.stopAtFirstEnd;
+    if (stage.kind == StageKind::Search && stage.joinsFirstTrack)
+      item["joins_first_track"] = true;
     if (stage.kind == StageKind::Refinement)
       item["linearized"] = stage.linearized;
     if (stage.kind == StageKind::Search)
@@ -404,6 +406,8 @@ void ReadSchedule(const Fields& f, RegistrationRecord& r)
     stage.imageDivisor = item["image_divisor"].asInt();
     stage.track = item["track"].isInt() ? item["track"].asInt() : 0;
     stage.stopAtFirstEnd = item["stops_at_first_track_end"].isBool() && item["stops_at_first_track_end"].asBool();
+    // Written only when true; records before it ran every stage of the second track.
+    stage.joinsFirstTrack = item["joins_first_track"].isBool() && item["joins_first_track"].asBool();
     // Records written before the linearized refinement rendered every evaluation.
     stage.linearized = item["linearized"].isBool() && item["linearized"].asBool();
     // Records written before the searches could high-pass kept the shading.

@@ -126,6 +126,7 @@ RegistrationSchedule MakeSchedule(const StereoRegistrationSettings& settings, bo
       stage.track = track;
       stage.optimizer = travel;
       stage.stopAtFirstEnd = track == 1;
+      stage.joinsFirstTrack = track == 1 && settings.secondSearchJoins;
       stages.push_back(stage);
     }
     ScheduledStage stage = Stage(StageKind::Search, name, coarse, travels ? 0.5 * (from + to) : from, to);
@@ -229,6 +230,8 @@ std::string DescribeSchedule(const RegistrationSchedule& schedule)
     if (stage.kind == StageKind::Search)
     {
       text += ", track " + std::to_string(stage.track) + (stage.stopAtFirstEnd ? ", stops at the first track's end" : "");
+      if (stage.joinsFirstTrack)
+        text += " and ends the track there";
       if (stage.highPassMM > 0.0)
       {
         std::snprintf(line, sizeof line, ", high-passed at %g mm", stage.highPassMM);

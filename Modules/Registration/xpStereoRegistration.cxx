@@ -171,6 +171,15 @@ bool Agree(const Pose& a, const Pose& b, const StereoRegistrationSettings& setti
     RotationApart(a, b) <= settings.maxSearchDisagreementDegrees;
 }
 
+/** Two ends of searches with these settings on one peak: each stopped within about its
+ *  tolerance of the peak, so they lie within twice the tolerances of each other, in every
+ *  translation and angle. Both must have stopped there (converged), not on their budget. */
+bool OnOnePeak(const PoseOptimizerResult& a, const PoseOptimizerResult& b, const PoseOptimizerSettings& optimizer)
+{
+  return a.converged && b.converged && TranslationApart(a.pose, b.pose) <= 2.0 * optimizer.toleranceMM &&
+    RotationApart(a.pose, b.pose) <= 2.0 * optimizer.toleranceDegrees;
+}
+
 /**
  * Fraction of the valid pixels where the X-ray shows attenuation (below 80 % of its open-field
  * level, its 99.5th percentile) but the DRR's ray meets no CT at all (full transmission): anatomy
@@ -837,6 +846,7 @@ public:
     const std::vector<ScheduledStage>& stages = this->Result.schedule.stages;
     std::array<std::optional<PoseOptimizerResult>, 2> trackEnds;
     std::map<int, PoseOptimizerResult> firstTrackEnds; // track 0's end at each image size
+    std::optional<Disagreement> joined; // where the second track met the first and ended (joinsFirstTrack)
     SearchEnds searchEnds;
     Refined refined;
     Clock::time_point sixDOFStart{};
@@ -872,16 +882,24 @@ public:
             sixDOFStart = Clock::now();
           std::optional<PoseOptimizerResult>& track = trackEnds[stage.track];
           const auto firstEnd = firstTrackEnds.find(stage.imageDivisor);
-          const PoseOptimizerResult found = this->Search(stage, track ? track->pose : this->TrackStart(stage.track),
-            stage.stopAtFirstEnd && firstEnd != firstTrackEnds.end() ? &firstEnd->second : nullptr);
-          this->Result.evaluations += found.evaluations;
-          track = found;
-          if (stage.track == 0)
-            firstTrackEnds[stage.imageDivisor] = found;
+          const bool meetsFirst = stage.stopAtFirstEnd && firstEnd != firstTrackEnds.end();
+          if (!(joined && stage.track == 1)) // a joined second track has ended
+          {
+            const PoseOptimizerResult found = this->Search(stage, track ? track->pose : this->TrackStart(stage.track),
+              meetsFirst ? &firstEnd->second : nullptr);
+            this->Result.evaluations += found.evaluations;
+            track = found;
+            if (stage.track == 0)
+              firstTrackEnds[stage.imageDivisor] = found;
+            if (meetsFirst && stage.joinsFirstTrack && (found.reachedTarget || OnOnePeak(found, firstEnd->second, stage.optimizer)))
+              joined = Between(firstEnd->second, found);
+          }
           if (s + 1 == stages.size() || stages[s + 1].kind != StageKind::Search)
           {
             this->Trace.End();
-            searchEnds = ChooseSearchEnds(*trackEnds[0], trackEnds[1]);
+            searchEnds = joined ? ChooseSearchEnds(*trackEnds[0], std::nullopt) : ChooseSearchEnds(*trackEnds[0], trackEnds[1]);
+            if (joined)
+              searchEnds.disagreement = *joined;
             this->Result.searchDisagreementMM = searchEnds.disagreement.mm;
             this->Result.searchDisagreementDegrees = searchEnds.disagreement.degrees;
             this->Result.searchObjectiveRatio = searchEnds.disagreement.objectiveRatio;

@@ -213,6 +213,11 @@ struct StereoRegistrationSettings
   /** The second coarse search stops once it evaluates a pose that agrees with the first one's
    *  end (within the distances above) and reaches this fraction of its objective. */
   double sameOptimumObjectiveRatio = 0.99;
+  /** With quarter-size travel: when the second search's quarter-size travel meets the first
+   *  one's quarter-size end (the stop above), the second search ends there (its half-size stage
+   *  is not run) and the searches' end is the first one's; false: it goes on at half size and
+   *  stops there at the first one's half-size end. */
+  bool secondSearchJoins = true;
   /** gate: refined ends apart fail the result when the worse one reaches this fraction of the
    *  better one's objective: two optima the images cannot tell apart. On the pelvis a stall on
    *  the roll/lateral valley ends a few percent lower (Algorithms.md). */

@@ -4,6 +4,7 @@
 #include "xpRegistrationRecord.h"
 
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <vtk_jsoncpp.h>
 
 #include <fstream>
@@ -153,6 +154,7 @@ TEST(RegistrationRecord, RoundTripsEveryField)
     EXPECT_EQ(a.imageDivisor, b.imageDivisor) << b.name;
     EXPECT_EQ(a.track, b.track) << b.name;
     EXPECT_EQ(a.stopAtFirstEnd, b.stopAtFirstEnd) << b.name;
+    EXPECT_EQ(a.joinsFirstTrack, b.joinsFirstTrack) << b.name;
     EXPECT_EQ(a.linearized, b.linearized) << b.name;
     EXPECT_EQ(a.linearized, b.kind == xp::StageKind::Refinement) << b.name << ": the refinement's setting read back";
     EXPECT_EQ(a.rounds, b.rounds) << b.name;
@@ -169,6 +171,10 @@ TEST(RegistrationRecord, RoundTripsEveryField)
       EXPECT_DOUBLE_EQ(a.optimizer.toleranceDegrees, b.optimizer.toleranceDegrees) << b.name;
     }
   }
+  EXPECT_EQ(std::count_if(read.schedule.stages.begin(), read.schedule.stages.end(),
+              [](const xp::ScheduledStage& stage) { return stage.joinsFirstTrack; }),
+    1)
+    << "the second search's quarter-size stage joins the first track, read back";
   EXPECT_EQ(read.objectiveTrace, written.objectiveTrace);
   ASSERT_TRUE(read.inputs.has_value());
   EXPECT_EQ(read.inputs->xrays, in.xrays);

@@ -1177,6 +1177,8 @@ TEST(RegistrationSchedule, TheEconomyTravelsAtQuarterSizeAndStopsLooser)
     }
   }
   EXPECT_EQ(quarter, 2);
+  for (const xp::ScheduledStage& e : economy.stages)
+    EXPECT_EQ(e.joinsFirstTrack, e.kind == xp::StageKind::Search && e.track == 1 && e.imageDivisor == 4) << e.name;
   // Each track's last stage on the same images: the two ends' objectives compare.
   for (const xp::RegistrationSchedule* schedule : { &standard, &economy })
   {
@@ -1261,6 +1263,43 @@ int EvaluationsOf(const xp::StereoRegistrationResult& result, const std::string&
 }
 
 } // namespace
+
+// Where the second search's quarter-size travel meets the first one's end, or ends within the
+// searches' agreement of it, the second search ends there: its half-size stage is not run, and the result is the one the climb on at half
+// size gives (secondSearchJoins false), within a tenth of the searches' agreement.
+TEST(RegistrationSchedule, TheSecondSearchEndsWhereItMeetsTheFirst)
+{
+  Scene scene;
+  const xp::Pose truth = xp::Pose::Parse("4,-3,2,1.5,-1,2", "truth");
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 5, 512, 384);
+  EXPECT_TRUE(xp::StereoRegistrationSettings{}.secondSearchJoins) << "the default";
+  // The phantom's two quarter-size travels end 0.38 mm and 0.2 degree apart, the second 9 % lower:
+  // on the same peak, which the second did not meet on its way.
+  const xp::StereoRegistrationSettings joining;
+  xp::StereoRegistrationSettings climbing = joining;
+  climbing.secondSearchJoins = false;
+  const xp::StereoRegistrationResult joined = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, joining);
+  const xp::StereoRegistrationResult climbed = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, climbing);
+  const std::string against = Described(joined) + " against " + Described(climbed);
+  ASSERT_TRUE(joined.ok) << against;
+  ASSERT_TRUE(climbed.ok) << against;
+  EXPECT_GT(EvaluationsOf(joined, "second coarse search (quarter resolution)", 4), 0);
+  EXPECT_EQ(EvaluationsOf(joined, "second coarse search", 2), -1) << "the second search met the first at quarter size";
+  const int halfSize = EvaluationsOf(climbed, "second coarse search", 2);
+  EXPECT_GT(halfSize, 0);
+  EXPECT_EQ(joined.evaluations, climbed.evaluations - halfSize) << "the same registration but for the half-size climb";
+  EXPECT_LE(joined.searchDisagreementMM, joining.maxSearchDisagreementMM);
+  EXPECT_LE(joined.searchDisagreementDegrees, joining.maxSearchDisagreementDegrees);
+  EXPECT_LT((joined.misalignment.translation - climbed.misalignment.translation).norm(), 0.05) << against;
+  EXPECT_LT(std::abs(joined.misalignment.yaw - climbed.misalignment.yaw), 0.05) << against;
+  bool joins = false;
+  for (const xp::ScheduledStage& stage : joined.schedule.stages)
+    joins |= stage.joinsFirstTrack;
+  EXPECT_TRUE(joins) << "the schedule says so";
+  EXPECT_NE(xp::DescribeSchedule(joined.schedule).find("ends the track there"), std::string::npos);
+  for (const xp::ScheduledStage& stage : climbed.schedule.stages)
+    EXPECT_FALSE(stage.joinsFirstTrack) << stage.name;
+}
 
 // --half-size-refinement: a refinement at half size on the refinement's objective, then the
 // full-size one from its end, which has no more to climb (on this scene the searches end near the
