@@ -65,10 +65,11 @@ struct ScheduledStage
    *  same image size, about as high (so that the two objectives compare). The refinement: the
    *  second end's refinement stops likewise at the first end's. */
   bool stopAtFirstEnd = false;
-  /** A track 1 search: when it stopped at track 0's end (stopAtFirstEnd), the track ends there:
-   *  its later stages are not run, and the searches' end is track 0's alone (the two tracks'
-   *  distance at this size is the searches' disagreement). A second climb from beside where the
-   *  first began at the next size retraces the first's. */
+  /** A track 1 search: when it stopped at track 0's end at this size (stopAtFirstEnd), or ended
+   *  converged within twice its optimiser's tolerances of it (both on one peak), the track ends
+   *  there: its later stages are not run, and the searches' end is track 0's alone (the two
+   *  tracks' distance at this size is the searches' disagreement). A second climb from beside
+   *  where the first began at the next size retraces the first's. */
   bool joinsFirstTrack = false;
   /** Searches: shading wider than this removed from the DRRs and the X-rays (sd, mm on the panel,
    *  as StereoRegistrationSettings::fineHighPassMM); 0 keeps it. */
