@@ -63,6 +63,7 @@ std::string SettingsText(const EvaluateOptions& o, const std::string& size, cons
        << ",\n  \"quarter_size_travel\": " << (o.settings.quarterSizeTravel ? "true" : "false")
        << ",\n  \"schedule\": \"" << ScheduleChoiceName(o.settings.schedule) << "\""
        << ",\n  \"second_search_joins\": " << (o.settings.secondSearchJoins ? "true" : "false")
+       << ",\n  \"held_out_turns\": " << (o.settings.heldOutTurns ? "true" : "false")
        << ",\n  \"vertex_polish_rounds\": " << o.settings.vertexPolishRounds
        << ",\n  \"half_size_refinement\": " << (o.settings.halfSizeRefinement ? "true" : "false")
        << ",\n  \"linearized_refinement\": " << (o.settings.linearizedRefinement ? "true" : "false")

@@ -112,6 +112,10 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     "Margin of the mask of rays that cross the body beyond the CT's end slices, mm")->capture_default_str();
   command->add_option("--held-out-high-pass-mm", settings.heldOutHighPassMM,
     "The gate's held-out peak check removes shading wider than this (sd, mm on the panel)")->capture_default_str();
+  command->add_option("--held-out-turns", settings.heldOutTurns,
+    "The held-out peak check also measures the neighbours turned either side along pitch, roll and yaw (6 half-size "
+    "evaluations; recorded in result.json held_out_leads, not judged); false: the translated neighbours only, which the "
+    "gate judges")->capture_default_str();
   command->add_option("--coverage-min-excess", settings.coverageMinExcess,
     "Those rays are left out beyond an end face where their upper quarter is more attenuated than the DRR "
     "predicts by this fraction of the X-ray's range (0: always)")->capture_default_str();

@@ -220,10 +220,15 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       r.endFacesLeftOut = std::stoi(f[i++]);
       for (double* v : { &r.peakMargin, &r.uncertaintyMM, &r.uncertaintyDegrees, &r.halvesApartMM })
         *v = std::stod(f[i++]);
+      // "nan" for a neighbour not measured (the turned ones without --held-out-turns).
       std::istringstream leads(f[i++]);
       for (double& v : r.peakLeads)
-        if (!(leads >> v))
+      {
+        std::string lead;
+        if (!(leads >> lead))
           throw std::invalid_argument("peak_leads");
+        v = std::stod(lead);
+      }
       for (std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM, &r.xrayRankNoise })
       {
         std::istringstream values(f[i++]);

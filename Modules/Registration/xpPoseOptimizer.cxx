@@ -176,16 +176,32 @@ std::vector<std::string> PoseOptimizerMethodNames()
 PoseOptimizerResult MaximizePose(
   const std::function<double(const Pose&)>& objective, const Pose& start, const PoseOptimizerSettings& settings)
 {
-  const std::function<double(const std::vector<double>&)> ofParameters = [&objective](const std::vector<double>& x)
-  { return objective(ToPose(x)); };
+  // A restart begins at the optimum it restarts from: that point's value is known, and is not
+  // evaluated again (the objective is a function of the pose). Its value comes back as the
+  // optimiser returned it; any other point, even one within rounding of it, is evaluated.
+  std::vector<double> known;
+  double knownValue = 0.0;
+  int reused = 0;
+  const std::function<double(const std::vector<double>&)> ofParameters = [&](const std::vector<double>& x)
+  {
+    if (!known.empty() && x == known)
+    {
+      known.clear(); // once: a later visit is the optimiser's own business
+      ++reused;
+      return knownValue;
+    }
+    return objective(ToPose(x));
+  };
   const std::array<double, 6> parameters = start.Parameters();
   std::vector<double> x(parameters.begin(), parameters.end());
-  int evaluations = 0;
+  int evaluations = 0, calls = 0; // the objective's evaluations; the optimiser's calls, its budget's
   const auto run = [&](std::vector<double>& from)
   {
+    reused = 0;
     const ParameterSearchResult found =
-      MaximizeParameters(ofParameters, from, PoseSearch(start, settings, settings.maxEvaluations - evaluations));
-    evaluations += found.evaluations;
+      MaximizeParameters(ofParameters, from, PoseSearch(start, settings, settings.maxEvaluations - calls));
+    calls += found.evaluations;
+    evaluations += found.evaluations - reused;
     PoseOptimizerResult result;
     static_cast<ParameterSearchResult&>(result) = found;
     return result;
@@ -194,7 +210,10 @@ PoseOptimizerResult MaximizePose(
   for (int restart = 0; restart < settings.maxRestarts && result.converged && !result.reachedTarget; ++restart)
   {
     std::vector<double> again = x;
+    known = x;
+    knownValue = result.value;
     const PoseOptimizerResult next = run(again);
+    known.clear();
     if (next.reachedTarget)
     {
       x = again;

@@ -704,13 +704,17 @@ std::vector<FieldCodec> EvidenceCodecs()
   return {
     { { "peak_margin", "number", "", "the result's least lead over its held-out neighbours", "always" },
       {}, [](const R& r) { return Json::Value(r.peakMargin); }, [](const Fields& f, R& r) { r.peakMargin = f.Number("peak_margin"); } },
-    { { "held_out_leads", "per axis", "", "each held-out neighbour's lead, [at -step, at +step]", "always" },
+    { { "held_out_leads", "per axis", "",
+        "each held-out neighbour's lead, [at -step, at +step]; the measured axes only (pitch, roll and yaw with --held-out-turns)",
+        "always" },
       {},
       [](const R& r)
       {
         Json::Value value(Json::objectValue);
         for (int a = 0; a < 6; ++a)
         {
+          if (std::isnan(r.peakLeads[2 * a]) && std::isnan(r.peakLeads[2 * a + 1]))
+            continue; // not measured
           value[axes[a]].append(r.peakLeads[2 * a]);
           value[axes[a]].append(r.peakLeads[2 * a + 1]);
         }
@@ -721,6 +725,9 @@ std::vector<FieldCodec> EvidenceCodecs()
         for (int a = 0; a < 6; ++a)
         {
           const std::string at = std::string("held_out_leads.") + axes[a];
+          r.peakLeads[2 * a] = r.peakLeads[2 * a + 1] = std::numeric_limits<double>::quiet_NaN();
+          if (a >= 3 && !f.At("held_out_leads").isMember(axes[a]))
+            continue; // a turned neighbour not measured
           const std::vector<double> leads = f.Numbers(at);
           if (leads.size() != 2)
             f.Fail(at, "must hold 2 numbers (the neighbours at -step and +step)");

@@ -427,9 +427,10 @@ Pose Moved(const Pose& center, int axis, double step)
  * right pose under any reasonable similarity; a pose that only the optimised, masked objective
  * favours (another patient's X-rays, an anatomy no pose fits) is beaten by a neighbour there.
  * The peak margin is the least relative lead of the result over the translated neighbours: the
- * turned ones are recorded, not judged, since smooth shading (the heel effect) moves a rounded
- * head's held-out peak along roll by more than the 1.5 degree probe while its result is right to
- * 0.3 degree (Algorithms.md, "A verdict...", 2).
+ * turned ones are not judged, since smooth shading (the heel effect) moves a rounded head's
+ * held-out peak along roll by more than the 1.5 degree probe while its result is right to 0.3
+ * degree (Algorithms.md, "A verdict...", 2); they are measured only where judged (a bone) or
+ * asked for (heldOutTurns), to be recorded.
  */
 std::array<double, 6> MeasureUncertainty(
   const std::function<double(const Pose&)>& objective, const Pose& result, double atResult, const StereoRegistrationSettings& settings)
@@ -458,7 +459,9 @@ PeakLeads MeasurePeakLeads(const std::function<double(const Pose&)>& heldOut, co
   PeakLeads out;
   const double check = heldOut(result);
   out.margin = std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 6; ++a)
+  out.leads.fill(std::numeric_limits<double>::quiet_NaN());
+  const int axes = settings.heldOutJudgesTurns || settings.heldOutTurns ? 6 : 3;
+  for (int a = 0; a < axes; ++a)
     for (double sign : { -1.0, 1.0 })
     {
       const double neighbour = heldOut(Moved(result, a, sign * (a < 3 ? settings.landscapeCheckMM : settings.landscapeCheckDegrees)));

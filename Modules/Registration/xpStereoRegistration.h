@@ -243,8 +243,14 @@ struct StereoRegistrationSettings
    *  most 0.10 where no other check failed them; the scenarios' 150 trials 0.22 and more
    *  (Algorithms.md). */
   double minPeakMargin = 0.14;
-  /** The held-out check judges the turned neighbours as well (a bone's, ForBone). */
+  /** The held-out check judges the turned neighbours as well (a bone's, ForBone); they are then
+   *  measured whatever heldOutTurns says. */
   bool heldOutJudgesTurns = false;
+  /** The held-out similarity measured at the turned neighbours too (pitch, roll and yaw
+   *  landscapeCheckDegrees either side): recorded in peakLeads, not judged unless
+   *  heldOutJudgesTurns. false (the default): the six evaluations that no check reads are not
+   *  made, and their leads are NaN. */
+  bool heldOutTurns = false;
   /** gate: per-axis uncertainty (the distance over which the objective falls by 5 %). */
   double maxUncertaintyMM = 3.0;
   double maxUncertaintyDegrees = 1.5;
@@ -344,7 +350,8 @@ struct StereoRegistrationResult
    *  maximum along that axis. */
   std::array<double, 6> uncertainty{};
   double peakMargin = 0.0;               ///< least lead of the result over its translated held-out neighbours
-  /** Each neighbour's lead: axis a (tx, ty, tz, pitch, roll, yaw) at -step in [2a], +step in [2a + 1]. */
+  /** Each neighbour's lead: axis a (tx, ty, tz, pitch, roll, yaw) at -step in [2a], +step in [2a + 1];
+   *  NaN where not measured (the turned ones unless heldOutTurns or heldOutJudgesTurns). */
   std::array<double, 12> peakLeads{};
   std::vector<double> objectiveTrace;    ///< every 6-DOF evaluation's objective, in order
   std::vector<RegistrationStage> stages; ///< the stages of that trace

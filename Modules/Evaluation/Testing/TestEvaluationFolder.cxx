@@ -8,7 +8,9 @@
 #include <vtkImageData.h>
 #include <vtkPointData.h>
 
+#include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <sstream>
@@ -88,6 +90,20 @@ TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadEdgeFigureAndStageCount)
   EXPECT_EQ(read[0].secondEndEvaluations, 5);
   EXPECT_EQ(read[0].polishEvaluations, 13);
   EXPECT_EQ(read[0].gateEvaluations, 14);
+  // The turned neighbours not measured (NaN) come back as NaN, the translated as written.
+  xp::TrialRecord translatedOnly = written;
+  for (int k = 6; k < 12; ++k)
+    translatedOnly.peakLeads[k] = std::numeric_limits<double>::quiet_NaN();
+  std::ofstream("eval-leads/trials.csv") << xp::TrialCSVHeader() << '\n' << xp::TrialCSVRow(translatedOnly) << '\n';
+  const std::vector<xp::TrialRecord> again = xp::ReadTrialCSV("eval-leads/trials.csv");
+  ASSERT_EQ(again.size(), 1u);
+  for (int k = 0; k < 12; ++k)
+  {
+    if (k < 6)
+      EXPECT_EQ(again[0].peakLeads[k], written.peakLeads[k]) << k;
+    else
+      EXPECT_TRUE(std::isnan(again[0].peakLeads[k])) << k;
+  }
   EXPECT_EQ(read[0].reasons, written.reasons);
 }
 

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <algorithm>
+#include <cmath>
 #include <vtk_jsoncpp.h>
 
 #include <fstream>
@@ -108,6 +109,31 @@ TEST(RegistrationRecord, RoundTripsEveryField)
   EXPECT_EQ(read.halvesApartMM, written.halvesApartMM) << "each view's halves under its own name";
   EXPECT_EQ(read.xrayCorrelation, written.xrayCorrelation);
   EXPECT_EQ(read.peakLeads, written.peakLeads) << "each lead under its axis and side";
+  // The turned neighbours not measured (the default): their axes left out, read back as NaN; a
+  // translated axis left out is a damaged record.
+  xp::RegistrationRecord translatedOnly = written;
+  for (size_t i = 6; i < translatedOnly.peakLeads.size(); ++i)
+    translatedOnly.peakLeads[i] = std::numeric_limits<double>::quiet_NaN();
+  const std::string translatedText = xp::RegistrationRecordJSON(translatedOnly);
+  const xp::RegistrationRecord readTranslated = xp::ParseRegistrationRecord(translatedText, "result.json");
+  for (size_t i = 0; i < 12; ++i)
+  {
+    if (i < 6)
+      EXPECT_DOUBLE_EQ(readTranslated.peakLeads[i], written.peakLeads[i]) << i;
+    else
+      EXPECT_TRUE(std::isnan(readTranslated.peakLeads[i])) << i << ": " << readTranslated.peakLeads[i];
+  }
+  Json::Value translatedRoot;
+  std::istringstream(translatedText) >> translatedRoot;
+  EXPECT_EQ(translatedRoot["held_out_leads"].getMemberNames(), (std::vector<std::string>{ "tx_mm", "ty_mm", "tz_mm" }))
+    << "the measured axes only";
+  {
+    Json::Value damaged = translatedRoot;
+    damaged["held_out_leads"].removeMember("tz_mm");
+    std::ostringstream text;
+    text << damaged;
+    EXPECT_THROW(xp::ParseRegistrationRecord(text.str(), "damaged.json"), xp::InputError);
+  }
   EXPECT_DOUBLE_EQ(read.restartsApartMM, 0.3);
   EXPECT_DOUBLE_EQ(read.restartsApartDegrees, 0.2);
   EXPECT_EQ(read.viewNames, written.viewNames) << "the views keep the geometry's order, not the alphabet's";

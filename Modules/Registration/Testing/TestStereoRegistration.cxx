@@ -440,6 +440,45 @@ TEST(PoseOptimizer, ATargetReachedAtAnyEvaluationEndsEveryMethodThere)
   }
 }
 
+// A restart begins at the optimum it restarts from, whose value is known: it is not evaluated
+// again. Every evaluation counted is a call of the objective, and no pose is evaluated twice.
+TEST(PoseOptimizer, ARestartDoesNotEvaluateItsStartAgain)
+{
+  const xp::Pose peak = xp::Pose::FromParameters(std::array<double, 6>{ 3.0, -2.0, 1.0, 1.0, 0.5, -1.0 }.data());
+  for (const xp::PoseOptimizerMethod method : { xp::PoseOptimizerMethod::BOBYQA, xp::PoseOptimizerMethod::NelderMead })
+  {
+    std::vector<std::array<double, 6>> asked;
+    const auto objective = [&](const xp::Pose& p)
+    {
+      asked.push_back(p.Parameters());
+      const std::array<double, 6> x = p.Parameters(), top = peak.Parameters();
+      double sum = 0.0;
+      for (int i = 0; i < 6; ++i)
+        sum += (1.0 + i) * (x[i] - top[i]) * (x[i] - top[i]);
+      return -sum;
+    };
+    xp::PoseOptimizerSettings settings;
+    settings.method = method;
+    settings.initialStepMM = 2.0;
+    settings.initialStepDegrees = 1.0; // powers of two: a restart's first point is its start to the bit
+    settings.toleranceMM = 0.5;
+    settings.toleranceDegrees = 0.25;
+    settings.maxEvaluations = 2000;
+    settings.maxRestarts = 0;
+    const int once = xp::MaximizePose(objective, xp::Pose{}, settings).evaluations;
+    asked.clear();
+    settings.maxRestarts = 3;
+    const xp::PoseOptimizerResult restarted = xp::MaximizePose(objective, xp::Pose{}, settings);
+    const std::string name = xp::PoseOptimizerMethodName(method);
+    ASSERT_GT(restarted.evaluations, once) << name << ": no restart ran, nothing is tested";
+    EXPECT_EQ(restarted.evaluations, static_cast<int>(asked.size())) << name << ": every evaluation counted is a call";
+    std::vector<std::array<double, 6>> distinct = asked;
+    std::sort(distinct.begin(), distinct.end());
+    EXPECT_EQ(std::unique(distinct.begin(), distinct.end()) - distinct.begin(), static_cast<long>(asked.size()))
+      << name << ": a pose evaluated twice";
+  }
+}
+
 // The optimiser component on its own, as the pre-alignment's 2D registrations use it: a peak in
 // three parameters of different scales found within their tolerances, each parameter in its
 // place; the box respected where the peak lies outside it; a parameter without its bound, step
@@ -1421,13 +1460,13 @@ TEST(RegistrationSchedule, TheTraceCountsEachStagesEvaluationsAtItsSize)
   EXPECT_EQ(total, static_cast<int>(result.objectiveTrace.size()));
   // The polish's, the held-out check's and the result's own evaluations are counted too: 13 a
   // polish round. The landscape reads its curvature from the polish's last 12 probes (none of its
-  // own), and the refinement's objective at the result is the polish's last evaluation (the
-  // result's edges: 1).
+  // own), the held-out check measures the result and its six translated neighbours (7), and the
+  // refinement's objective at the result is the polish's last evaluation (the result's edges: 1).
   const auto polish = std::find_if(result.stages.begin(), result.stages.end(), [](const xp::RegistrationStage& s) { return s.name == "vertex polish"; });
   ASSERT_NE(polish, result.stages.end());
   EXPECT_GT(polish->evaluations, 0);
   EXPECT_EQ(polish->evaluations % 13, 0);
-  const std::map<std::string, int> expected = { { "landscape", 0 }, { "held-out check", 13 }, { "at the result", 1 } };
+  const std::map<std::string, int> expected = { { "landscape", 0 }, { "held-out check", 7 }, { "at the result", 1 } };
   for (const auto& [name, evaluations] : expected)
   {
     const auto stage = std::find_if(result.stages.begin(), result.stages.end(), [&](const xp::RegistrationStage& s) { return s.name == name; });
@@ -1969,25 +2008,42 @@ TEST(StereoRegistrationGate, WhatNoRayOfTheCTMeetsDoesNotJudgeTheHeldOutPeak)
   const xp::StereoRegistrationResult result = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), railed);
   ASSERT_TRUE(reference.ok) << Described(reference);
   EXPECT_LT((result.misalignment.translation - reference.misalignment.translation).norm(), 0.2) << Described(result);
-  for (size_t k = 0; k < result.peakLeads.size(); ++k)
+  for (size_t k = 0; k < 6; ++k) // the translated neighbours' (the turned ones are not measured)
     EXPECT_NEAR(result.peakLeads[k], reference.peakLeads[k], 0.02) << "axis " << k / 2 << (k % 2 ? " +" : " -");
 }
 
-// The held-out peak check judges the translated neighbours; the turned ones are recorded beside
-// them. On this rounded scene the turned neighbours lead least, so a margin taken over all twelve
-// would be theirs.
+// The held-out peak check judges the translated neighbours; the turned ones are measured only
+// when asked for (heldOutTurns), and then recorded beside them. On this rounded scene the turned
+// neighbours lead least, so a margin taken over all twelve would be theirs. Not measuring them
+// saves their six evaluations and changes nothing else.
 TEST(StereoRegistrationGate, TheHeldOutMarginIsTheTranslatedNeighboursLeastLead)
 {
   Scene scene;
   const xp::Pose truth = xp::Pose::Parse("2,-3,1,1,-0.5,1", "truth");
-  const xp::StereoRegistrationResult result =
-    xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), SimulateKV(scene, truth, 9, 256, 192));
+  const std::vector<xp::RegistrationView> views = SimulateKV(scene, truth, 9, 256, 192);
+  xp::StereoRegistrationSettings turns;
+  turns.heldOutTurns = true;
+  EXPECT_FALSE(xp::StereoRegistrationSettings{}.heldOutTurns) << "the default";
+  const xp::StereoRegistrationResult result = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views, turns);
   const auto leads = result.peakLeads;
   const double translated = *std::min_element(leads.begin(), leads.begin() + 6);
   const double turned = *std::min_element(leads.begin() + 6, leads.end());
   ASSERT_LT(turned, translated) << "the scene's turned neighbours must lead least for this test to tell the two apart";
   EXPECT_DOUBLE_EQ(result.peakMargin, translated) << Described(result);
   EXPECT_TRUE(result.ok) << Described(result);
+
+  const xp::StereoRegistrationResult plain = xp::RegisterStereo(scene.volume, scene.planned, Eigen::Vector3d::Zero(), views);
+  EXPECT_EQ(plain.evaluations, result.evaluations - 6) << "the six turned neighbours not evaluated";
+  EXPECT_EQ(plain.misalignment.Parameters(), result.misalignment.Parameters()) << "the same registration";
+  EXPECT_EQ(plain.ok, result.ok);
+  EXPECT_DOUBLE_EQ(plain.peakMargin, result.peakMargin);
+  for (size_t k = 0; k < 12; ++k)
+  {
+    if (k < 6)
+      EXPECT_DOUBLE_EQ(plain.peakLeads[k], leads[k]) << k;
+    else
+      EXPECT_TRUE(std::isnan(plain.peakLeads[k])) << k << ": " << plain.peakLeads[k];
+  }
 }
 
 #include "xpCudaRayCaster.h"
