@@ -18,6 +18,13 @@
 #define XP_EXACT_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw"), optimize("fp-contract=off")))
 #endif
 
+/** A function written with AVX2 intrinsics (and FMA's target), called only where the CPU has them. */
+#if defined(__clang__)
+#define XP_EXACT_AVX2 __attribute__((target("avx2,fma")))
+#else
+#define XP_EXACT_AVX2 __attribute__((target("avx2,fma"), optimize("fp-contract=off")))
+#endif
+
 /**
  * A function of plain C++ built twice, for AVX-512 and for the baseline, and picked at load time:
  * loops the compiler vectorises across outputs run eight doubles wide where the CPU has AVX-512,

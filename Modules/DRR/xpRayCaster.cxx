@@ -712,7 +712,7 @@ XP_EXACT_AVX512 inline __m256i CeilToInt(__m512d x)
  * SetUpPlaneRay, OccupiedSpan and the packet's sample range for rays [lane0, lane0 + count) of a
  * packet (count <= 8), eight at a time: per lane the scalar functions' operations in their order,
  * none fused, so every PlaneRay and sample range is theirs to the bit
- * (RayCasterAnalytic.ThePacketsRaysSetUpEightAtATimeGiveTheIntegralsToTheBit).
+ * (RayCasterAnalytic.ThePacketsRaysSetUpSeveralAtATimeGiveTheIntegralsToTheBit).
  */
 XP_EXACT_AVX512 void SetUpRaysAVX512(const AttenuationVolume& volume, const IndexRay* rays, int count, RayPacket& packet, int lane0)
 {
@@ -822,6 +822,219 @@ XP_EXACT_AVX512 void SetUpRaysAVX512(const AttenuationVolume& volume, const Inde
 }
 #undef XP_PICK
 
+/** Four doubles, b's lanes where `pick` (all bits set), a's elsewhere. */
+#define XP_PICK4(pick, a, b) _mm256_blendv_pd((a), (b), (pick))
+
+/** Per lane, v[0] where `x`, v[1] where `y`, else v[2]. */
+XP_EXACT_AVX2 inline __m256d AlongAxis4(const __m256d v[3], __m256d x, __m256d y)
+{
+  return XP_PICK4(y, XP_PICK4(x, v[2], v[0]), v[1]);
+}
+
+/** static_cast<int>(std::ceil(x)) per lane. */
+XP_EXACT_AVX2 inline __m128i CeilToInt4(__m256d x)
+{
+  return _mm256_cvttpd_epi32(_mm256_round_pd(x, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
+}
+
+/** The four 64-bit lanes' masks as four 32-bit ones. */
+XP_EXACT_AVX2 inline __m128i NarrowMask4(__m256d mask)
+{
+  return _mm256_castsi256_si128(
+    _mm256_permutevar8x32_epi32(_mm256_castpd_si256(mask), _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7)));
+}
+
+/**
+ * FirstOccupiedAVX512 on four rays with AVX2: each lane walks the blocks as WalkBlocks does (the
+ * same operations in the same order; std::min's and std::max's choices on ties). Lanes not in
+ * `lanes` (all bits set where in) take no step; their result is Infinity.
+ */
+XP_EXACT_AVX2 __m256d FirstOccupiedAVX2(const AttenuationVolume& volume, const __m256d start[3], const __m256d direction[3],
+  __m256d tEnter, __m256d tExit, __m256d lanes)
+{
+  const __m256d blockSize = _mm256_set1_pd(static_cast<double>(1 << AttenuationVolume::BlockShift));
+  const __m256d zero = _mm256_setzero_pd(), infinity = _mm256_set1_pd(Infinity);
+  const Eigen::Vector3i& blocks = volume.BlockDimensions();
+  const long long blockStrides[3] = { 1, blocks[0], static_cast<long long>(blocks[0]) * blocks[1] };
+  __m256d tNext[3], tDelta[3];
+  __m256i stride[3], left[3]; // 64-bit lanes, as WalkBlocks' longs
+  __m256i index = _mm256_setzero_si256();
+  for (int a = 0; a < 3; ++a)
+  {
+    const __m256d entry = _mm256_add_pd(start[a], _mm256_mul_pd(tEnter, direction[a]));
+    __m128i cell = _mm256_cvttpd_epi32(_mm256_div_pd(entry, blockSize));
+    cell = _mm_min_epi32(_mm_max_epi32(cell, _mm_setzero_si128()), _mm_set1_epi32(blocks[a] - 1));
+    const __m256d d = direction[a];
+    const __m256d positive = _mm256_cmp_pd(d, zero, _CMP_GT_OQ), flat = _mm256_cmp_pd(d, zero, _CMP_EQ_OQ);
+    const __m256i cell64 = _mm256_cvtepi32_epi64(cell), positive64 = _mm256_castpd_si256(positive);
+    index = _mm256_add_epi64(index, _mm256_mul_epi32(cell64, _mm256_set1_epi64x(blockStrides[a])));
+    stride[a] = _mm256_blendv_epi8(_mm256_set1_epi64x(-blockStrides[a]), _mm256_set1_epi64x(blockStrides[a]), positive64);
+    left[a] = _mm256_blendv_epi8(cell64, _mm256_sub_epi64(_mm256_set1_epi64x(blocks[a] - 1), cell64), positive64);
+    const __m128i boundary = _mm_add_epi32(cell, _mm_and_si128(NarrowMask4(positive), _mm_set1_epi32(1)));
+    const __m256d next = _mm256_div_pd(_mm256_sub_pd(_mm256_mul_pd(_mm256_cvtepi32_pd(boundary), blockSize), start[a]), d);
+    const __m256d magnitude = _mm256_andnot_pd(_mm256_set1_pd(-0.0), d);
+    tNext[a] = XP_PICK4(flat, next, infinity);
+    tDelta[a] = XP_PICK4(flat, _mm256_div_pd(blockSize, magnitude), infinity);
+  }
+  const uint8_t* occupied = volume.OccupancyGrid();
+  __m256d t = tEnter, first = infinity;
+  __m256d active = lanes;
+  while (true)
+  {
+    active = _mm256_and_pd(active, _mm256_cmp_pd(t, tExit, _CMP_LT_OQ));
+    int activeLanes = _mm256_movemask_pd(active);
+    if (!activeLanes)
+      break;
+    alignas(32) long long at[4];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(at), index);
+    alignas(32) long long foundBits[4];
+    for (int l = 0; l < 4; ++l)
+      foundBits[l] = ((activeLanes >> l) & 1) && occupied[at[l]] != 0 ? -1 : 0;
+    const __m256d found = _mm256_castsi256_pd(_mm256_load_si256(reinterpret_cast<const __m256i*>(foundBits)));
+    first = XP_PICK4(found, first, t);
+    active = _mm256_andnot_pd(found, active);
+    if (!_mm256_movemask_pd(active))
+      break;
+    // std::min(tx, std::min(ty, tz)): (b < a) ? b : a at each step.
+    const __m256d yz = XP_PICK4(_mm256_cmp_pd(tNext[2], tNext[1], _CMP_LT_OQ), tNext[1], tNext[2]);
+    const __m256d tStep = XP_PICK4(_mm256_cmp_pd(yz, tNext[0], _CMP_LT_OQ), tNext[0], yz);
+    t = XP_PICK4(active, t, XP_PICK4(_mm256_cmp_pd(tExit, tStep, _CMP_LT_OQ), tStep, tExit));
+    __m256i exhausted = _mm256_setzero_si256();
+    for (int a = 0; a < 3; ++a)
+    {
+      const __m256d steps = _mm256_and_pd(active, _mm256_cmp_pd(tNext[a], tStep, _CMP_EQ_OQ));
+      const __m256i steps64 = _mm256_castpd_si256(steps);
+      index = _mm256_add_epi64(index, _mm256_and_si256(steps64, stride[a]));
+      // tNext + (steps ? tDelta : 0.0), as the scalar walk adds.
+      tNext[a] = XP_PICK4(active, tNext[a], _mm256_add_pd(tNext[a], _mm256_and_pd(steps, tDelta[a])));
+      left[a] = _mm256_add_epi64(left[a], steps64); // steps64 is -1 where it steps
+      exhausted = _mm256_or_si256(exhausted, _mm256_cmpgt_epi64(_mm256_setzero_si256(), left[a]));
+    }
+    active = _mm256_andnot_pd(_mm256_castsi256_pd(exhausted), active);
+  }
+  return first;
+}
+
+/**
+ * SetUpRaysAVX512 for rays [lane0, lane0 + count) of a packet (count <= 4), four at a time with
+ * AVX2: per lane the scalar functions' operations in their order, none fused, so every PlaneRay
+ * and sample range is theirs to the bit
+ * (RayCasterAnalytic.ThePacketsRaysSetUpSeveralAtATimeGiveTheIntegralsToTheBit).
+ */
+XP_EXACT_AVX2 void SetUpRaysAVX2(const AttenuationVolume& volume, const IndexRay* rays, int count, RayPacket& packet, int lane0)
+{
+  alignas(32) double in[7][4] = {};
+  for (int l = 0; l < 4; ++l)
+  {
+    const IndexRay& ray = rays[std::min(l, count - 1)];
+    for (int a = 0; a < 3; ++a)
+      in[a][l] = ray.start[a], in[3 + a][l] = ray.direction[a];
+    in[6][l] = ray.length;
+  }
+  alignas(32) long long laneBits[4];
+  for (int l = 0; l < 4; ++l)
+    laneBits[l] = l < count ? -1 : 0;
+  const __m256d lanes = _mm256_castsi256_pd(_mm256_load_si256(reinterpret_cast<const __m256i*>(laneBits)));
+  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0), signBit = _mm256_set1_pd(-0.0);
+  __m256d start[3], direction[3];
+  for (int a = 0; a < 3; ++a)
+    start[a] = _mm256_load_pd(in[a]), direction[a] = _mm256_load_pd(in[3 + a]);
+  // ClipForInterpolation: ClipToBox against [0, padded - 1 - 1e-4].
+  const Eigen::Vector3d upperD = volume.PaddedDimensions().cast<double>() - Eigen::Vector3d::Constant(1.0 + 1e-4);
+  __m256d tEnter = zero, tExit = _mm256_load_pd(in[6]);
+  __m256d hit = lanes;
+  for (int a = 0; a < 3; ++a)
+  {
+    const __m256d d = direction[a], p = start[a], hi = _mm256_set1_pd(upperD[a]);
+    const __m256d flat = _mm256_cmp_pd(d, zero, _CMP_EQ_OQ);
+    const __m256d outside = _mm256_or_pd(_mm256_cmp_pd(p, zero, _CMP_LT_OQ), _mm256_cmp_pd(p, hi, _CMP_GT_OQ));
+    hit = _mm256_andnot_pd(_mm256_and_pd(flat, outside), hit);
+    const __m256d ta = _mm256_div_pd(_mm256_sub_pd(zero, p), d), tb = _mm256_div_pd(_mm256_sub_pd(hi, p), d);
+    const __m256d swap = _mm256_cmp_pd(ta, tb, _CMP_GT_OQ);
+    const __m256d low = XP_PICK4(swap, ta, tb), high = XP_PICK4(swap, tb, ta);
+    // std::max(t0, ta), std::min(t1, tb), where the ray is not flat along this axis
+    tEnter = XP_PICK4(_mm256_andnot_pd(flat, _mm256_cmp_pd(tEnter, low, _CMP_LT_OQ)), tEnter, low);
+    tExit = XP_PICK4(_mm256_andnot_pd(flat, _mm256_cmp_pd(high, tExit, _CMP_LT_OQ)), tExit, high);
+  }
+  hit = _mm256_and_pd(hit, _mm256_cmp_pd(tEnter, tExit, _CMP_LT_OQ));
+  // The dominant axis (Eigen's maxCoeff: the first of equal ones), and b, c as SetUpPlaneRay takes them.
+  const __m256d ax = _mm256_andnot_pd(signBit, direction[0]), ay = _mm256_andnot_pd(signBit, direction[1]),
+                az = _mm256_andnot_pd(signBit, direction[2]);
+  const __m256d overX = _mm256_cmp_pd(ay, ax, _CMP_GT_OQ);
+  const __m256d largest = XP_PICK4(overX, ax, ay);
+  const __m256d isZ = _mm256_cmp_pd(az, largest, _CMP_GT_OQ), isY = _mm256_andnot_pd(isZ, overX);
+  const __m256d isX = _mm256_andnot_pd(_mm256_or_pd(isY, isZ), _mm256_castsi256_pd(_mm256_set1_epi64x(-1)));
+  // a: X, Y or Z; b: Y where a is X, else X; c: Z unless a is, then Y.
+  const __m256d da = AlongAxis4(direction, isX, isY), startA = AlongAxis4(start, isX, isY);
+  const __m256d db = XP_PICK4(isX, direction[0], direction[1]), startB = XP_PICK4(isX, start[0], start[1]);
+  const __m256d dc = XP_PICK4(isZ, direction[2], direction[1]), startC = XP_PICK4(isZ, start[2], start[1]);
+  const __m256d upperB = XP_PICK4(isX, _mm256_set1_pd(upperD[0]), _mm256_set1_pd(upperD[1]));
+  const __m256d upperC = XP_PICK4(isZ, _mm256_set1_pd(upperD[2]), _mm256_set1_pd(upperD[1]));
+  const __m256d forward = _mm256_cmp_pd(da, zero, _CMP_GT_OQ);
+  const __m256d entryA = _mm256_add_pd(startA, _mm256_mul_pd(tEnter, da));
+  const __m256d roundedA = XP_PICK4(forward, _mm256_round_pd(entryA, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
+    _mm256_round_pd(entryA, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
+  const __m128i m0 = _mm256_cvttpd_epi32(roundedA);
+  const __m256d t0 = _mm256_div_pd(_mm256_sub_pd(_mm256_cvtepi32_pd(m0), startA), da);
+  const __m256d dt = _mm256_div_pd(one, _mm256_andnot_pd(signBit, da));
+  const __m256d perPlaneB = _mm256_mul_pd(dt, db), perPlaneC = _mm256_mul_pd(dt, dc);
+  const __m256d firstB = _mm256_add_pd(startB, _mm256_mul_pd(t0, db)), firstC = _mm256_add_pd(startC, _mm256_mul_pd(t0, dc));
+  // OccupiedSpan: the first occupied block from the entry, then from the exit on the reversed ray.
+  const __m256d infinity = _mm256_set1_pd(Infinity);
+  const __m256d tFirst = FirstOccupiedAVX2(volume, start, direction, tEnter, tExit, hit);
+  const __m256d spanned = _mm256_and_pd(hit, _mm256_cmp_pd(tFirst, infinity, _CMP_NEQ_OQ));
+  const __m256d mirror = _mm256_add_pd(tEnter, tExit);
+  __m256d reversedStart[3], reversedDirection[3];
+  for (int a = 0; a < 3; ++a)
+  {
+    reversedStart[a] = _mm256_add_pd(start[a], _mm256_mul_pd(mirror, direction[a]));
+    // -d (the sign flipped, as Eigen's negation), not 0 - d, which differs at 0.
+    reversedDirection[a] = _mm256_xor_pd(direction[a], signBit);
+  }
+  const __m256d uLast = FirstOccupiedAVX2(volume, reversedStart, reversedDirection, tEnter, _mm256_sub_pd(mirror, tFirst), spanned);
+  const __m256d tLast = XP_PICK4(_mm256_cmp_pd(uLast, infinity, _CMP_EQ_OQ), _mm256_sub_pd(mirror, uLast), tExit);
+  // EndSample, SamplesIn(tFirst, tLast), and the packet's margin of one sample either side.
+  const __m128i endSample = CeilToInt4(_mm256_div_pd(_mm256_sub_pd(tExit, t0), dt));
+  const __m128i j0 = _mm_max_epi32(_mm_setzero_si128(), CeilToInt4(_mm256_div_pd(_mm256_sub_pd(tFirst, t0), dt)));
+  const __m256d runEnd = XP_PICK4(_mm256_cmp_pd(tExit, tLast, _CMP_LT_OQ), tLast, tExit);
+  const __m128i j1 = CeilToInt4(_mm256_div_pd(_mm256_sub_pd(runEnd, t0), dt));
+  const __m128i firstSample = _mm_max_epi32(_mm_setzero_si128(), _mm_sub_epi32(j0, _mm_set1_epi32(1)));
+  const __m128i lastSample = _mm_min_epi32(endSample, _mm_add_epi32(j1, _mm_set1_epi32(1)));
+
+  alignas(32) double outTEnter[4], outTExit[4], outT0[4], outDt[4];
+  alignas(16) int outM0[4], outFirst[4], outLast[4];
+  alignas(16) float outB0[4], outDb[4], outC0[4], outDc[4], outUpperB[4], outUpperC[4];
+  _mm256_store_pd(outTEnter, tEnter), _mm256_store_pd(outTExit, tExit), _mm256_store_pd(outT0, t0), _mm256_store_pd(outDt, dt);
+  _mm_store_si128(reinterpret_cast<__m128i*>(outM0), m0);
+  _mm_store_si128(reinterpret_cast<__m128i*>(outFirst), firstSample);
+  _mm_store_si128(reinterpret_cast<__m128i*>(outLast), lastSample);
+  _mm_store_ps(outB0, _mm256_cvtpd_ps(firstB)), _mm_store_ps(outDb, _mm256_cvtpd_ps(perPlaneB));
+  _mm_store_ps(outC0, _mm256_cvtpd_ps(firstC)), _mm_store_ps(outDc, _mm256_cvtpd_ps(perPlaneC));
+  _mm_store_ps(outUpperB, _mm256_cvtpd_ps(upperB)), _mm_store_ps(outUpperC, _mm256_cvtpd_ps(upperC));
+  const int hitLanes = _mm256_movemask_pd(hit), spannedLanes = _mm256_movemask_pd(spanned);
+  const int xLanes = _mm256_movemask_pd(isX), yLanes = _mm256_movemask_pd(isY), forwardLanes = _mm256_movemask_pd(forward);
+  const int nx = volume.PaddedDimensions()[0], ny = volume.PaddedDimensions()[1], nxy = nx * ny;
+  for (int l = 0; l < count; ++l)
+  {
+    PlaneRay& out = packet.rays[lane0 + l];
+    if (!((hitLanes >> l) & 1))
+      continue; // missed: axis -1, as SetUpPlaneRay leaves it
+    const int a = ((xLanes >> l) & 1) ? 0 : ((yLanes >> l) & 1) ? 1 : 2;
+    const bool yFastest = a == 0;
+    out.axis = a;
+    out.tEnter = outTEnter[l], out.tExit = outTExit[l], out.t0 = outT0[l], out.dt = outDt[l];
+    out.planes = PlaneRun{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), a == 0 ? ny : a == 1 ? nx : nxy,
+      a == 2 ? nx : nxy, outM0[l], ((forwardLanes >> l) & 1) ? 1 : -1, outB0[l], outDb[l], outC0[l], outDc[l], outUpperB[l],
+      outUpperC[l] };
+    if ((spannedLanes >> l) & 1)
+    {
+      packet.first[lane0 + l] = outFirst[l];
+      packet.last[lane0 + l] = outLast[l];
+    }
+  }
+}
+#undef XP_PICK4
+
 /** How TracePacket samples a packet: two AVX2 passes of eight lanes, or one AVX-512 pass of
  *  sixteen reading voxel rows with loads where it can, or with gathers. */
 enum class PacketPath
@@ -839,21 +1052,35 @@ PacketPath PacketPathOf(const RayCastSettings& settings)
                                                                       : PacketPath::SixteenLanesGathers;
 }
 
+/** How TracePacket sets a packet's rays up: one at a time, four at a time with AVX2, or eight at a
+ *  time with AVX-512 (F, VL and BW); the same packet every way. */
+enum class RaySetUp
+{
+  OneAtATime,
+  FourAtATime,
+  EightAtATime,
+};
+
 /**
  * Line integrals of a packet's `count` rays (at most Size) into integrals[0..count-1]: one pass
  * per distinct (axis, direction) among its rays, one pass except where the dominant axis changes
- * across the panel, along `path`. Lanes from `count` on take no samples. With `wideSetUp` (AVX-512
- * F, VL and BW) the rays are set up eight at a time, else one at a time: the same packet.
+ * across the panel, along `path`. Lanes from `count` on take no samples. The rays are set up as
+ * `setUp` says: the same packet every way.
  */
 void TracePacket(const AttenuationVolume& volume, const IndexRay* rays, int count, const std::array<int, 3>& planeSteps,
-  PacketPath path, bool wideSetUp, float* integrals)
+  PacketPath path, RaySetUp setUp, float* integrals)
 {
   RayPacket packet;
   const long long voxelCount = static_cast<long long>(volume.VoxelCount());
-  if (wideSetUp)
+  if (setUp == RaySetUp::EightAtATime)
   {
     for (int lane0 = 0; lane0 < count; lane0 += 8)
       SetUpRaysAVX512(volume, rays + lane0, std::min(8, count - lane0), packet, lane0);
+  }
+  else if (setUp == RaySetUp::FourAtATime)
+  {
+    for (int lane0 = 0; lane0 < count; lane0 += 4)
+      SetUpRaysAVX2(volume, rays + lane0, std::min(4, count - lane0), packet, lane0);
   }
   else
   {
@@ -1251,7 +1478,12 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
   if (packets)
   {
     const PacketPath path = PacketPathOf(settings);
-    const bool wideSetUp = settings.wideSetUp && path != PacketPath::EightLanes && HaveAVX512VL;
+    // The rays set up several at a time where the settings allow it: eight with the sixteen lanes'
+    // AVX-512, four with AVX2 for the eight lanes'.
+    const RaySetUp setUp = !settings.wideSetUp             ? RaySetUp::OneAtATime
+      : path != PacketPath::EightLanes && HaveAVX512VL ? RaySetUp::EightAtATime
+      : path == PacketPath::EightLanes                 ? RaySetUp::FourAtATime
+                                                       : RaySetUp::OneAtATime;
     const std::vector<int>& starts = pixels.PacketStarts();
     const long long packetCount = static_cast<long long>(starts.size()) - 1;
     ParallelFor(0LL, packetCount, static_cast<long long>(TileColumns * TileRows / RayPacket::Size),
@@ -1266,7 +1498,7 @@ long long RenderLineIntegrals(const AttenuationVolume& volume, const Eigen::Isom
           {
             rays[r] = rayOf(order[firstRay + r]);
           }
-          TracePacket(volume, rays, count, settings.planeSteps, path, wideSetUp, integrals);
+          TracePacket(volume, rays, count, settings.planeSteps, path, setUp, integrals);
           for (int r = 0; r < count; ++r)
           {
             lineIntegrals[order[firstRay + r]] = integrals[r];

@@ -126,9 +126,10 @@ struct VTKXPDRR_EXPORT RayCastSettings
   /** With sixteen lanes: how a packet reads its voxels (VoxelReads; the same integrals to the bit). */
   VoxelReads voxelReads = VoxelReads::Auto;
   /**
-   * With sixteen lanes: a packet's rays clipped to the volume and their occupied blocks found
-   * eight at a time with AVX-512 (where the CPU has its F, VL and BW parts), the same operations
-   * per ray as one at a time; false: one at a time. The same integrals to the bit.
+   * A packet's rays clipped to the volume and their occupied blocks found several at a time, the
+   * same operations per ray as one at a time: with sixteen lanes eight at a time with AVX-512
+   * (where the CPU has its F, VL and BW parts), with eight lanes four at a time with AVX2; false:
+   * one at a time. The same integrals to the bit.
    */
   bool wideSetUp = true;
   /** CUDA: Joseph's scheme only (method Trilinear, stepSize 0); volumes and pixel lists stay on
