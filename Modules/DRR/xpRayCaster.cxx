@@ -708,6 +708,42 @@ XP_EXACT_AVX512 inline __m256i CeilToInt(__m512d x)
   return _mm512_cvttpd_epi32(_mm512_roundscale_pd(x, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
 }
 
+/** What a vector set-up found for its `Lanes` rays, per lane; the masks hold bit l for lane l. */
+template <int Lanes>
+struct LaneSetUps
+{
+  alignas(64) double tEnter[Lanes], tExit[Lanes], t0[Lanes], dt[Lanes];
+  alignas(32) int m0[Lanes], first[Lanes], last[Lanes];
+  alignas(32) float b0[Lanes], db[Lanes], c0[Lanes], dc[Lanes], upperB[Lanes], upperC[Lanes];
+  unsigned hit = 0, spanned = 0, isX = 0, isY = 0, forward = 0;
+};
+
+/** The packet's rays [lane0, lane0 + count) as SetUpPlaneRay and the packet's sample range make
+ *  them, from a vector set-up's lanes. */
+template <int Lanes>
+void StoreSetUps(const AttenuationVolume& volume, const LaneSetUps<Lanes>& in, int count, RayPacket& packet, int lane0)
+{
+  const int nx = volume.PaddedDimensions()[0], ny = volume.PaddedDimensions()[1], nxy = nx * ny;
+  for (int l = 0; l < count; ++l)
+  {
+    PlaneRay& out = packet.rays[lane0 + l];
+    if (!((in.hit >> l) & 1))
+      continue; // missed: axis -1, as SetUpPlaneRay leaves it
+    const int a = ((in.isX >> l) & 1) ? 0 : ((in.isY >> l) & 1) ? 1 : 2;
+    const bool yFastest = a == 0;
+    out.axis = a;
+    out.tEnter = in.tEnter[l], out.tExit = in.tExit[l], out.t0 = in.t0[l], out.dt = in.dt[l];
+    out.planes = PlaneRun{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), a == 0 ? ny : a == 1 ? nx : nxy,
+      a == 2 ? nx : nxy, in.m0[l], ((in.forward >> l) & 1) ? 1 : -1, in.b0[l], in.db[l], in.c0[l], in.dc[l], in.upperB[l],
+      in.upperC[l] };
+    if ((in.spanned >> l) & 1)
+    {
+      packet.first[lane0 + l] = in.first[l];
+      packet.last[lane0 + l] = in.last[l];
+    }
+  }
+}
+
 /**
  * SetUpPlaneRay, OccupiedSpan and the packet's sample range for rays [lane0, lane0 + count) of a
  * packet (count <= 8), eight at a time: per lane the scalar functions' operations in their order,
@@ -790,35 +826,16 @@ XP_EXACT_AVX512 void SetUpRaysAVX512(const AttenuationVolume& volume, const Inde
   const __m256i firstSample = _mm256_max_epi32(_mm256_setzero_si256(), _mm256_sub_epi32(j0, _mm256_set1_epi32(1)));
   const __m256i lastSample = _mm256_min_epi32(endSample, _mm256_add_epi32(j1, _mm256_set1_epi32(1)));
 
-  alignas(64) double outTEnter[8], outTExit[8], outT0[8], outDt[8];
-  alignas(32) int outM0[8], outFirst[8], outLast[8];
-  alignas(32) float outB0[8], outDb[8], outC0[8], outDc[8], outUpperB[8], outUpperC[8];
-  _mm512_store_pd(outTEnter, tEnter), _mm512_store_pd(outTExit, tExit), _mm512_store_pd(outT0, t0), _mm512_store_pd(outDt, dt);
-  _mm256_store_si256(reinterpret_cast<__m256i*>(outM0), m0);
-  _mm256_store_si256(reinterpret_cast<__m256i*>(outFirst), firstSample);
-  _mm256_store_si256(reinterpret_cast<__m256i*>(outLast), lastSample);
-  _mm256_store_ps(outB0, _mm512_cvtpd_ps(firstB)), _mm256_store_ps(outDb, _mm512_cvtpd_ps(perPlaneB));
-  _mm256_store_ps(outC0, _mm512_cvtpd_ps(firstC)), _mm256_store_ps(outDc, _mm512_cvtpd_ps(perPlaneC));
-  _mm256_store_ps(outUpperB, _mm512_cvtpd_ps(upperB)), _mm256_store_ps(outUpperC, _mm512_cvtpd_ps(upperC));
-  const int nx = volume.PaddedDimensions()[0], ny = volume.PaddedDimensions()[1], nxy = nx * ny;
-  for (int l = 0; l < count; ++l)
-  {
-    PlaneRay& out = packet.rays[lane0 + l];
-    if (!((hit >> l) & 1))
-      continue; // missed: axis -1, as SetUpPlaneRay leaves it
-    const int a = ((isX >> l) & 1) ? 0 : ((isY >> l) & 1) ? 1 : 2;
-    const bool yFastest = a == 0;
-    out.axis = a;
-    out.tEnter = outTEnter[l], out.tExit = outTExit[l], out.t0 = outT0[l], out.dt = outDt[l];
-    out.planes = PlaneRun{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), a == 0 ? ny : a == 1 ? nx : nxy,
-      a == 2 ? nx : nxy, outM0[l], ((forward >> l) & 1) ? 1 : -1, outB0[l], outDb[l], outC0[l], outDc[l], outUpperB[l],
-      outUpperC[l] };
-    if ((spanned >> l) & 1)
-    {
-      packet.first[lane0 + l] = outFirst[l];
-      packet.last[lane0 + l] = outLast[l];
-    }
-  }
+  LaneSetUps<8> out;
+  _mm512_store_pd(out.tEnter, tEnter), _mm512_store_pd(out.tExit, tExit), _mm512_store_pd(out.t0, t0), _mm512_store_pd(out.dt, dt);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(out.m0), m0);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(out.first), firstSample);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(out.last), lastSample);
+  _mm256_store_ps(out.b0, _mm512_cvtpd_ps(firstB)), _mm256_store_ps(out.db, _mm512_cvtpd_ps(perPlaneB));
+  _mm256_store_ps(out.c0, _mm512_cvtpd_ps(firstC)), _mm256_store_ps(out.dc, _mm512_cvtpd_ps(perPlaneC));
+  _mm256_store_ps(out.upperB, _mm512_cvtpd_ps(upperB)), _mm256_store_ps(out.upperC, _mm512_cvtpd_ps(upperC));
+  out.hit = hit, out.spanned = spanned, out.isX = isX, out.isY = isY, out.forward = forward;
+  StoreSetUps(volume, out, count, packet, lane0);
 }
 #undef XP_PICK
 
@@ -882,7 +899,7 @@ XP_EXACT_AVX2 __m256d FirstOccupiedAVX2(const AttenuationVolume& volume, const _
   while (true)
   {
     active = _mm256_and_pd(active, _mm256_cmp_pd(t, tExit, _CMP_LT_OQ));
-    int activeLanes = _mm256_movemask_pd(active);
+    const int activeLanes = _mm256_movemask_pd(active);
     if (!activeLanes)
       break;
     alignas(32) long long at[4];
@@ -1001,37 +1018,18 @@ XP_EXACT_AVX2 void SetUpRaysAVX2(const AttenuationVolume& volume, const IndexRay
   const __m128i firstSample = _mm_max_epi32(_mm_setzero_si128(), _mm_sub_epi32(j0, _mm_set1_epi32(1)));
   const __m128i lastSample = _mm_min_epi32(endSample, _mm_add_epi32(j1, _mm_set1_epi32(1)));
 
-  alignas(32) double outTEnter[4], outTExit[4], outT0[4], outDt[4];
-  alignas(16) int outM0[4], outFirst[4], outLast[4];
-  alignas(16) float outB0[4], outDb[4], outC0[4], outDc[4], outUpperB[4], outUpperC[4];
-  _mm256_store_pd(outTEnter, tEnter), _mm256_store_pd(outTExit, tExit), _mm256_store_pd(outT0, t0), _mm256_store_pd(outDt, dt);
-  _mm_store_si128(reinterpret_cast<__m128i*>(outM0), m0);
-  _mm_store_si128(reinterpret_cast<__m128i*>(outFirst), firstSample);
-  _mm_store_si128(reinterpret_cast<__m128i*>(outLast), lastSample);
-  _mm_store_ps(outB0, _mm256_cvtpd_ps(firstB)), _mm_store_ps(outDb, _mm256_cvtpd_ps(perPlaneB));
-  _mm_store_ps(outC0, _mm256_cvtpd_ps(firstC)), _mm_store_ps(outDc, _mm256_cvtpd_ps(perPlaneC));
-  _mm_store_ps(outUpperB, _mm256_cvtpd_ps(upperB)), _mm_store_ps(outUpperC, _mm256_cvtpd_ps(upperC));
-  const int hitLanes = _mm256_movemask_pd(hit), spannedLanes = _mm256_movemask_pd(spanned);
-  const int xLanes = _mm256_movemask_pd(isX), yLanes = _mm256_movemask_pd(isY), forwardLanes = _mm256_movemask_pd(forward);
-  const int nx = volume.PaddedDimensions()[0], ny = volume.PaddedDimensions()[1], nxy = nx * ny;
-  for (int l = 0; l < count; ++l)
-  {
-    PlaneRay& out = packet.rays[lane0 + l];
-    if (!((hitLanes >> l) & 1))
-      continue; // missed: axis -1, as SetUpPlaneRay leaves it
-    const int a = ((xLanes >> l) & 1) ? 0 : ((yLanes >> l) & 1) ? 1 : 2;
-    const bool yFastest = a == 0;
-    out.axis = a;
-    out.tEnter = outTEnter[l], out.tExit = outTExit[l], out.t0 = outT0[l], out.dt = outDt[l];
-    out.planes = PlaneRun{ yFastest ? volume.VoxelsYFastest() : volume.Voxels(), a == 0 ? ny : a == 1 ? nx : nxy,
-      a == 2 ? nx : nxy, outM0[l], ((forwardLanes >> l) & 1) ? 1 : -1, outB0[l], outDb[l], outC0[l], outDc[l], outUpperB[l],
-      outUpperC[l] };
-    if ((spannedLanes >> l) & 1)
-    {
-      packet.first[lane0 + l] = outFirst[l];
-      packet.last[lane0 + l] = outLast[l];
-    }
-  }
+  LaneSetUps<4> out;
+  _mm256_store_pd(out.tEnter, tEnter), _mm256_store_pd(out.tExit, tExit), _mm256_store_pd(out.t0, t0), _mm256_store_pd(out.dt, dt);
+  _mm_store_si128(reinterpret_cast<__m128i*>(out.m0), m0);
+  _mm_store_si128(reinterpret_cast<__m128i*>(out.first), firstSample);
+  _mm_store_si128(reinterpret_cast<__m128i*>(out.last), lastSample);
+  _mm_store_ps(out.b0, _mm256_cvtpd_ps(firstB)), _mm_store_ps(out.db, _mm256_cvtpd_ps(perPlaneB));
+  _mm_store_ps(out.c0, _mm256_cvtpd_ps(firstC)), _mm_store_ps(out.dc, _mm256_cvtpd_ps(perPlaneC));
+  _mm_store_ps(out.upperB, _mm256_cvtpd_ps(upperB)), _mm_store_ps(out.upperC, _mm256_cvtpd_ps(upperC));
+  out.hit = static_cast<unsigned>(_mm256_movemask_pd(hit)), out.spanned = static_cast<unsigned>(_mm256_movemask_pd(spanned));
+  out.isX = static_cast<unsigned>(_mm256_movemask_pd(isX)), out.isY = static_cast<unsigned>(_mm256_movemask_pd(isY));
+  out.forward = static_cast<unsigned>(_mm256_movemask_pd(forward));
+  StoreSetUps(volume, out, count, packet, lane0);
 }
 #undef XP_PICK4
 

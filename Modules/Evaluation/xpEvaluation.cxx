@@ -225,9 +225,9 @@ std::vector<TrialRecord> ReadTrialCSV(const std::string& path)
       for (double& v : r.peakLeads)
       {
         std::string lead;
-        if (!(leads >> lead))
+        size_t used = 0;
+        if (!(leads >> lead) || (v = std::stod(lead, &used), used != lead.size()))
           throw std::invalid_argument("peak_leads");
-        v = std::stod(lead);
       }
       for (std::vector<double>* perView : { &r.edgeMM, &r.edgeMovedMM, &r.xrayRankNoise })
       {

@@ -104,6 +104,13 @@ TEST(EvaluationFolder, TrialRowsKeepEachHeldOutLeadEdgeFigureAndStageCount)
     else
       EXPECT_TRUE(std::isnan(again[0].peakLeads[k])) << k;
   }
+  // A lead that is not wholly a number is a damaged row.
+  std::string damaged = xp::TrialCSVRow(translatedOnly);
+  const size_t at = damaged.find("nan");
+  ASSERT_NE(at, std::string::npos);
+  damaged.replace(at, 3, "0.5x");
+  std::ofstream("eval-leads/trials.csv") << xp::TrialCSVHeader() << '\n' << damaged << '\n';
+  EXPECT_ANY_THROW(xp::ReadTrialCSV("eval-leads/trials.csv"));
   EXPECT_EQ(read[0].reasons, written.reasons);
 }
 
