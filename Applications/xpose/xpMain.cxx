@@ -92,8 +92,8 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     ->check(CLI::IsMember({ "standard", "economy" }))
     ->default_str("economy");
   command->add_option("--second-search-joins", settings.secondSearchJoins,
-    "When the second search's quarter-size travel meets the first one's end, or ends within twice its stops of it "
-    "(2 mm, 1 degree), it ends there; false: it goes on at half size until it meets the first one's half-size end "
+    "When the second search's quarter-size travel meets the first one's end, or one of its runs ends within twice its "
+    "stops of it (2 mm, 1 degree), it ends there, without a restart; false: it goes on at half size until it meets the first one's half-size end "
     "(Algorithms.md, \"Where the evaluations go\")")->capture_default_str();
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds at most of moving the refinement's end to the vertex of the objective's parabola along each axis, through its "

@@ -209,6 +209,8 @@ PoseOptimizerResult MaximizePose(
   PoseOptimizerResult result = run(x);
   for (int restart = 0; restart < settings.maxRestarts && result.converged && !result.reachedTarget; ++restart)
   {
+    if (settings.endsRestarts && settings.endsRestarts(ToPose(x), result.value))
+      break;
     std::vector<double> again = x;
     known = x;
     knownValue = result.value;

@@ -50,6 +50,9 @@ struct PoseOptimizerSettings
   /** When set, the search ends as soon as an evaluated pose satisfies it (the target is reached);
    *  that pose is the result. */
   std::function<bool(const Pose&, double)> stopWhen;
+  /** When set, no restart follows a run whose end (its pose and value) satisfies it: the end
+   *  already answers what the restarts would look for. */
+  std::function<bool(const Pose&, double)> endsRestarts;
 };
 
 

@@ -174,10 +174,14 @@ bool Agree(const Pose& a, const Pose& b, const StereoRegistrationSettings& setti
 /** Two ends of searches with these settings on one peak: each stopped within about its
  *  tolerance of the peak, so they lie within twice the tolerances of each other, in every
  *  translation and angle. Both must have stopped there (converged), not on their budget. */
+bool WithinTwiceTheStops(const Pose& a, const Pose& b, const PoseOptimizerSettings& optimizer)
+{
+  return TranslationApart(a, b) <= 2.0 * optimizer.toleranceMM && RotationApart(a, b) <= 2.0 * optimizer.toleranceDegrees;
+}
+
 bool OnOnePeak(const PoseOptimizerResult& a, const PoseOptimizerResult& b, const PoseOptimizerSettings& optimizer)
 {
-  return a.converged && b.converged && TranslationApart(a.pose, b.pose) <= 2.0 * optimizer.toleranceMM &&
-    RotationApart(a.pose, b.pose) <= 2.0 * optimizer.toleranceDegrees;
+  return a.converged && b.converged && WithinTwiceTheStops(a.pose, b.pose, optimizer);
 }
 
 /**
@@ -1178,6 +1182,11 @@ private:
     if (firstEnd)
       optimizer.stopWhen = [firstEnd, &settings](const Pose& pose, double value)
       { return Agree(pose, firstEnd->pose, settings) && value >= settings.sameOptimumObjectiveRatio * firstEnd->value; };
+    // A track that ends on the first one's peak joins it (RunStages): a converged run that ends
+    // there is such an end, and a restart from it would climb the same peak again.
+    if (firstEnd && firstEnd->converged && stage.joinsFirstTrack)
+      optimizer.endsRestarts = [firstEnd, stops = stage.optimizer](const Pose& pose, double)
+      { return WithinTwiceTheStops(pose, firstEnd->pose, stops); };
     return MaximizePose(this->Traced(this->SearchSimilarity(stage)), from, optimizer);
   }
 

@@ -442,20 +442,30 @@ TEST(PoseOptimizer, ATargetReachedAtAnyEvaluationEndsEveryMethodThere)
 
 // A restart begins at the optimum it restarts from, whose value is known: it is not evaluated
 // again. Every evaluation counted is a call of the objective, and no pose is evaluated twice.
+namespace
+{
+
+/** A quadratic peak at (3, -2, 1 mm; 1, 0.5, -1 degrees), each parameter's curvature its own. */
+double SkewedPeak(const xp::Pose& p)
+{
+  const std::array<double, 6> x = p.Parameters(), top{ 3.0, -2.0, 1.0, 1.0, 0.5, -1.0 };
+  double sum = 0.0;
+  for (int i = 0; i < 6; ++i)
+    sum += (1.0 + i) * (x[i] - top[i]) * (x[i] - top[i]);
+  return -sum;
+}
+
+} // namespace
+
 TEST(PoseOptimizer, ARestartDoesNotEvaluateItsStartAgain)
 {
-  const xp::Pose peak = xp::Pose::FromParameters(std::array<double, 6>{ 3.0, -2.0, 1.0, 1.0, 0.5, -1.0 }.data());
   for (const xp::PoseOptimizerMethod method : { xp::PoseOptimizerMethod::BOBYQA, xp::PoseOptimizerMethod::NelderMead })
   {
     std::vector<std::array<double, 6>> asked;
     const auto objective = [&](const xp::Pose& p)
     {
       asked.push_back(p.Parameters());
-      const std::array<double, 6> x = p.Parameters(), top = peak.Parameters();
-      double sum = 0.0;
-      for (int i = 0; i < 6; ++i)
-        sum += (1.0 + i) * (x[i] - top[i]) * (x[i] - top[i]);
-      return -sum;
+      return SkewedPeak(p);
     };
     xp::PoseOptimizerSettings settings;
     settings.method = method;
@@ -476,6 +486,49 @@ TEST(PoseOptimizer, ARestartDoesNotEvaluateItsStartAgain)
     std::sort(distinct.begin(), distinct.end());
     EXPECT_EQ(std::unique(distinct.begin(), distinct.end()) - distinct.begin(), static_cast<long>(asked.size()))
       << name << ": a pose evaluated twice";
+  }
+}
+
+// endsRestarts: a run whose end satisfies it gets no restart (the second search's quarter-size
+// travel ending on the first one's peak, which a restart would climb again); one whose end does
+// not is restarted as without it. The predicate is asked about the run's end and its value.
+TEST(PoseOptimizer, NoRestartFollowsARunWhoseEndEndsTheRestarts)
+{
+  const std::function<double(const xp::Pose&)> objective = SkewedPeak;
+  for (const xp::PoseOptimizerMethod method : { xp::PoseOptimizerMethod::BOBYQA, xp::PoseOptimizerMethod::NelderMead })
+  {
+    const std::string name = xp::PoseOptimizerMethodName(method);
+    xp::PoseOptimizerSettings settings;
+    settings.method = method;
+    settings.toleranceMM = 0.5;
+    settings.toleranceDegrees = 0.25;
+    settings.maxEvaluations = 2000;
+    settings.maxRestarts = 0;
+    const xp::PoseOptimizerResult once = xp::MaximizePose(objective, xp::Pose{}, settings);
+    settings.maxRestarts = 3;
+    const xp::PoseOptimizerResult restarted = xp::MaximizePose(objective, xp::Pose{}, settings);
+    ASSERT_GT(restarted.evaluations, once.evaluations) << name << ": no restart ran, nothing is tested";
+
+    std::vector<std::pair<std::array<double, 6>, double>> asked;
+    bool ends = true;
+    settings.endsRestarts = [&](const xp::Pose& end, double value)
+    {
+      asked.emplace_back(end.Parameters(), value);
+      return ends;
+    };
+    const xp::PoseOptimizerResult ended = xp::MaximizePose(objective, xp::Pose{}, settings);
+    EXPECT_EQ(ended.evaluations, once.evaluations) << name << ": the first run only";
+    EXPECT_EQ(ended.pose.Parameters(), once.pose.Parameters()) << name;
+    ASSERT_EQ(asked.size(), 1u) << name << ": asked once, about the first run's end";
+    EXPECT_EQ(asked[0].first, once.pose.Parameters()) << name;
+    EXPECT_EQ(asked[0].second, once.value) << name;
+
+    asked.clear();
+    ends = false;
+    const xp::PoseOptimizerResult going = xp::MaximizePose(objective, xp::Pose{}, settings);
+    EXPECT_EQ(going.evaluations, restarted.evaluations) << name << ": restarted as without it";
+    EXPECT_EQ(going.pose.Parameters(), restarted.pose.Parameters()) << name;
+    EXPECT_FALSE(asked.empty()) << name;
   }
 }
 
