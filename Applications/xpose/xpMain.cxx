@@ -93,8 +93,8 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     ->default_str("economy");
   command->add_option("--second-search-joins", settings.secondSearchJoins,
     "When the second search's quarter-size travel meets the first one's end, or one of its runs ends within twice its "
-    "stops of it (2 mm, 1 degree), it ends there, without a restart; false: it goes on at half size until it meets the first one's half-size end "
-    "(Algorithms.md, \"Where the evaluations go\")")->capture_default_str();
+    "stops of it (2 mm, 1 degree), it ends there, without a restart; false: it goes on at half size until it meets "
+    "the first one's half-size end (Algorithms.md, \"Where the evaluations go\")")->capture_default_str();
   command->add_option("--vertex-polish", settings.vertexPolishRounds,
     "Rounds at most of moving the refinement's end to the vertex of the objective's parabola along each axis, through its "
     "values 1.5 mm and 1 degree either side, until one moves less than the refinement's stop (0: off)")->capture_default_str();

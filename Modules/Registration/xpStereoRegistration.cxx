@@ -171,14 +171,15 @@ bool Agree(const Pose& a, const Pose& b, const StereoRegistrationSettings& setti
     RotationApart(a, b) <= settings.maxSearchDisagreementDegrees;
 }
 
-/** Two ends of searches with these settings on one peak: each stopped within about its
- *  tolerance of the peak, so they lie within twice the tolerances of each other, in every
- *  translation and angle. Both must have stopped there (converged), not on their budget. */
+/** Two poses within twice the optimiser's stops of each other, in every translation and angle. */
 bool WithinTwiceTheStops(const Pose& a, const Pose& b, const PoseOptimizerSettings& optimizer)
 {
   return TranslationApart(a, b) <= 2.0 * optimizer.toleranceMM && RotationApart(a, b) <= 2.0 * optimizer.toleranceDegrees;
 }
 
+/** Two ends of searches with these settings on one peak: each stopped within about its
+ *  tolerance of the peak, so they lie within twice the tolerances of each other, in every
+ *  translation and angle. Both must have stopped there (converged), not on their budget. */
 bool OnOnePeak(const PoseOptimizerResult& a, const PoseOptimizerResult& b, const PoseOptimizerSettings& optimizer)
 {
   return a.converged && b.converged && WithinTwiceTheStops(a.pose, b.pose, optimizer);

@@ -216,9 +216,9 @@ struct StereoRegistrationSettings
   /** With quarter-size travel: when the second search's quarter-size travel meets the first
    *  one's quarter-size end (the stop above), or one of its runs ends within twice the travel's
    *  tolerances of it (2 mm, 1 degree; no restart follows that run), the second search ends there
-   *  (its half-size stage is not run) and the
-   *  searches' end is the first one's (ScheduledStage::joinsFirstTrack); false: it goes on at
-   *  half size and stops there at the first one's half-size end. */
+   *  (its half-size stage is not run) and the searches' end is the first one's
+   *  (ScheduledStage::joinsFirstTrack); false: it goes on at half size and stops there at the
+   *  first one's half-size end. */
   bool secondSearchJoins = true;
   /** gate: refined ends apart fail the result when the worse one reaches this fraction of the
    *  better one's objective: two optima the images cannot tell apart. On the pelvis a stall on

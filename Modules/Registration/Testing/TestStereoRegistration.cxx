@@ -440,8 +440,6 @@ TEST(PoseOptimizer, ATargetReachedAtAnyEvaluationEndsEveryMethodThere)
   }
 }
 
-// A restart begins at the optimum it restarts from, whose value is known: it is not evaluated
-// again. Every evaluation counted is a call of the objective, and no pose is evaluated twice.
 namespace
 {
 
@@ -457,6 +455,8 @@ double SkewedPeak(const xp::Pose& p)
 
 } // namespace
 
+// A restart begins at the optimum it restarts from, whose value is known: it is not evaluated
+// again. Every evaluation counted is a call of the objective, and no pose is evaluated twice.
 TEST(PoseOptimizer, ARestartDoesNotEvaluateItsStartAgain)
 {
   for (const xp::PoseOptimizerMethod method : { xp::PoseOptimizerMethod::BOBYQA, xp::PoseOptimizerMethod::NelderMead })
