@@ -287,6 +287,22 @@ Disagreement Between(const PoseOptimizerResult& a, const PoseOptimizerResult& b)
 
 } // namespace
 
+PoseOptimizerSettings SearchStageOptimizer(
+  const ScheduledStage& stage, const PoseOptimizerResult* firstEnd, const StereoRegistrationSettings& settings)
+{
+  PoseOptimizerSettings optimizer = stage.optimizer;
+  if (!firstEnd)
+    return optimizer;
+  optimizer.stopWhen = [end = *firstEnd, settings](const Pose& pose, double value)
+  { return Agree(pose, end.pose, settings) && value >= settings.sameOptimumObjectiveRatio * end.value; };
+  // A track that ends on the first one's peak joins it (RunStages): a converged run that ends
+  // there is such an end, and a restart from it would climb the same peak again.
+  if (firstEnd->converged && stage.joinsFirstTrack)
+    optimizer.endsRestarts = [end = firstEnd->pose, stops = stage.optimizer](const Pose& pose, double)
+    { return WithinTwiceTheStops(pose, end, stops); };
+  return optimizer;
+}
+
 std::vector<uint16_t> ShrinkImage(const std::vector<uint16_t>& image, int columns, int factor)
 {
   return Shrink(image, columns, factor, [](const std::vector<uint16_t>& b)
@@ -1178,17 +1194,7 @@ private:
   PoseOptimizerResult Search(const ScheduledStage& stage, const Pose& from, const PoseOptimizerResult* firstEnd)
   {
     this->Trace.Begin(stage.name, stage.imageDivisor, stage.kind);
-    PoseOptimizerSettings optimizer = stage.optimizer;
-    const StereoRegistrationSettings& settings = this->Settings;
-    if (firstEnd)
-      optimizer.stopWhen = [firstEnd, &settings](const Pose& pose, double value)
-      { return Agree(pose, firstEnd->pose, settings) && value >= settings.sameOptimumObjectiveRatio * firstEnd->value; };
-    // A track that ends on the first one's peak joins it (RunStages): a converged run that ends
-    // there is such an end, and a restart from it would climb the same peak again.
-    if (firstEnd && firstEnd->converged && stage.joinsFirstTrack)
-      optimizer.endsRestarts = [firstEnd, stops = stage.optimizer](const Pose& pose, double)
-      { return WithinTwiceTheStops(pose, firstEnd->pose, stops); };
-    return MaximizePose(this->Traced(this->SearchSimilarity(stage)), from, optimizer);
+    return MaximizePose(this->Traced(this->SearchSimilarity(stage)), from, SearchStageOptimizer(stage, firstEnd, this->Settings));
   }
 
   /** The ends to refine, better first. Ends far apart matter only when both are about as good;

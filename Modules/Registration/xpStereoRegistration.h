@@ -401,6 +401,18 @@ VTKXPREGISTRATION_EXPORT RegistrationSchedule MakeSchedule(
   const StereoRegistrationSettings& settings, bool pyramid, bool quarter, bool boneOnly);
 
 /**
+ * The optimiser a search stage runs: `stage.optimizer`, and on track 1 (`firstEnd`: track 0's
+ * end at the stage's image size) two ends of its own. It stops as soon as it evaluates a pose that
+ * agrees with firstEnd (settings.maxSearchDisagreementMM and Degrees) at no less than
+ * settings.sameOptimumObjectiveRatio of its value; and where the stage joins the first track
+ * (ScheduledStage::joinsFirstTrack) and firstEnd converged, no restart follows a run that ends
+ * within twice the stage's stops of firstEnd (PoseOptimizerSettings::endsRestarts), since a
+ * restart from the first track's peak climbs it again. Both keep copies of what they compare.
+ */
+VTKXPREGISTRATION_EXPORT PoseOptimizerSettings SearchStageOptimizer(
+  const ScheduledStage& stage, const PoseOptimizerResult* firstEnd, const StereoRegistrationSettings& settings);
+
+/**
  * Registers a CT to stereo X-rays. `views` carry the X-rays (any bit depth, row 0 first) and, in
  * `mask`, the user ROIs (empty = whole image). Misalignments act about `isocenter` after
  * `plannedCTToRoom`. `observer`, when set, hears of every evaluation. The steps: pre-alignment

@@ -1393,6 +1393,76 @@ TEST(RegistrationSchedule, TheSecondSearchEndsWhereItMeetsTheFirst)
     EXPECT_FALSE(stage.joinsFirstTrack) << stage.name;
 }
 
+// The search stages' optimisers as the default schedule gives them: track 0's as scheduled; track
+// 1's stop on a pose agreeing with track 0's end about as high; the stage that joins the first
+// track (the second quarter-size travel) ends its restarts where a run ends within twice its stops
+// of a converged first end, along a translation or an angle, and no other stage does.
+TEST(RegistrationSchedule, TheSecondTravelEndsItsRestartsWithinTwiceItsStopsOfTheFirstEnd)
+{
+  const xp::StereoRegistrationSettings settings;
+  const xp::RegistrationSchedule schedule = xp::MakeSchedule(settings, true, true, false);
+  const xp::ScheduledStage* joining = nullptr;
+  const xp::ScheduledStage* halfSize = nullptr;
+  const xp::ScheduledStage* first = nullptr;
+  for (const xp::ScheduledStage& stage : schedule.stages)
+    if (stage.kind == xp::StageKind::Search)
+    {
+      if (stage.track == 0 && !first)
+        first = &stage;
+      else if (stage.track == 1 && stage.joinsFirstTrack)
+        joining = &stage;
+      else if (stage.track == 1)
+        halfSize = &stage;
+    }
+  ASSERT_NE(first, nullptr);
+  ASSERT_NE(joining, nullptr) << xp::DescribeSchedule(schedule);
+  ASSERT_NE(halfSize, nullptr) << xp::DescribeSchedule(schedule);
+  ASSERT_GT(joining->optimizer.toleranceMM, 0.0);
+  ASSERT_GT(joining->optimizer.toleranceDegrees, 0.0);
+
+  const xp::PoseOptimizerSettings alone = xp::SearchStageOptimizer(*first, nullptr, settings);
+  EXPECT_FALSE(alone.stopWhen) << "track 0 has no end to meet";
+  EXPECT_FALSE(alone.endsRestarts);
+  EXPECT_EQ(alone.maxRestarts, first->optimizer.maxRestarts);
+  EXPECT_EQ(alone.maxEvaluations, first->optimizer.maxEvaluations);
+
+  xp::PoseOptimizerResult firstEnd;
+  firstEnd.pose = xp::Pose::Parse("3,-2,1,1,-1,0.5", "first end");
+  firstEnd.value = 0.8;
+  firstEnd.converged = true;
+  const double mm = joining->optimizer.toleranceMM, degrees = joining->optimizer.toleranceDegrees;
+  auto moved = [&](double dx, double droll)
+  {
+    xp::Pose pose = firstEnd.pose;
+    pose.translation.x() += dx;
+    pose.roll += droll;
+    return pose;
+  };
+  const xp::PoseOptimizerSettings joins = xp::SearchStageOptimizer(*joining, &firstEnd, settings);
+  ASSERT_TRUE(joins.endsRestarts);
+  EXPECT_TRUE(joins.endsRestarts(moved(1.9 * mm, 0.0), 0.1)) << "within twice the stops, whatever its value";
+  EXPECT_TRUE(joins.endsRestarts(moved(0.0, -1.9 * degrees), 0.1));
+  EXPECT_FALSE(joins.endsRestarts(moved(2.1 * mm, 0.0), 0.8)) << "beyond twice the stops in x";
+  EXPECT_FALSE(joins.endsRestarts(moved(0.0, -2.1 * degrees), 0.8)) << "beyond twice the stops in roll";
+  ASSERT_TRUE(joins.stopWhen);
+  EXPECT_TRUE(joins.stopWhen(firstEnd.pose, settings.sameOptimumObjectiveRatio * firstEnd.value));
+  EXPECT_FALSE(joins.stopWhen(firstEnd.pose, 0.9 * settings.sameOptimumObjectiveRatio * firstEnd.value)) << "clearly lower";
+  EXPECT_FALSE(joins.stopWhen(moved(settings.maxSearchDisagreementMM + 0.1, 0.0), firstEnd.value)) << "not in agreement";
+
+  const xp::PoseOptimizerSettings climbs = xp::SearchStageOptimizer(*halfSize, &firstEnd, settings);
+  EXPECT_TRUE(climbs.stopWhen) << "the half-size stage still stops on the first end";
+  EXPECT_FALSE(climbs.endsRestarts) << "it does not join the first track";
+
+  xp::PoseOptimizerResult unconverged = firstEnd;
+  unconverged.converged = false;
+  EXPECT_FALSE(xp::SearchStageOptimizer(*joining, &unconverged, settings).endsRestarts)
+    << "an end that stopped on its budget is no peak";
+
+  // The optimiser keeps its own copy of the first end: the caller's may change.
+  firstEnd.pose.translation.x() += 10.0;
+  EXPECT_TRUE(joins.endsRestarts(moved(-10.0 + 1.9 * mm, 0.0), 0.1));
+}
+
 // --half-size-refinement: a refinement at half size on the refinement's objective, then the
 // full-size one from its end, which has no more to climb (on this scene the searches end near the
 // peak; on the pelvis it took half the evaluations: Algorithms.md); the pose as near the truth.
