@@ -82,7 +82,7 @@ void AddMethodOptions(CLI::App* command, xp::StereoRegistrationSettings& setting
     "The same for the coarse searches' half-size DRRs (0: as for the refinement, for the CT they render; 1: every ray)")->capture_default_str();
   command->add_option("--quarter-size-travel", settings.quarterSizeTravel,
     "The coarse searches travel on quarter-size images first, then end at half size (when the quarter is at least 128x96; "
-    "faster searches, less accurate on the standard schedule's own stops: Performance.md, \"Quarter-size travel\")")
+    "faster searches, less accurate on the standard schedule's own stops: Algorithms.md, \"The economy schedule\")")
     ->capture_default_str();
   command
     ->add_option_function<std::string>(
@@ -141,7 +141,7 @@ void AddTableOptions(CLI::App* command, bool& chooseTable, bool& removeTable)
   keep->excludes(remove);
 }
 
-/** The quality gate's limits (Algorithms.md, "quality gate"). */
+/** The quality gate's limits (Algorithms.md, "A verdict that does not depend on how the X-ray was formed"). */
 void AddGateOptions(CLI::App* command, xp::StereoRegistrationSettings& settings)
 {
   command->add_option("--min-explained", settings.minExplained,

@@ -110,8 +110,8 @@ struct StereoRegistrationSettings
   /** The coarse searches travel on quarter-size images first (from the half-size CT), then go
    *  on at half size from where they stopped, when the quarter is at least 128x96: a
    *  quarter-size pair casts a fifth of the rays. Off in the standard schedule, where it cost
-   *  accurate results and accuracy on the generalisation matrix (Performance.md, "Quarter-size
-   *  travel"); the economy schedule travels so with its own stops. */
+   *  accurate results and accuracy on the generalisation matrix (Algorithms.md, "The economy
+   *  schedule"); the economy schedule travels so with its own stops. */
   bool quarterSizeTravel = false;
   /** The schedule of the searches and the refinement (MakeSchedule): the economy one (the
    *  default: quarter-size travel, looser stops, one restart) or the standard one it replaced
